@@ -1,0 +1,244 @@
+//! Colliders through parry3d: half-spaces (the ground, walls), balls, cuboids, capsules and triangle meshes,
+//! static or moving with constant linear and angular velocity; restitution and Coulomb friction.
+//!
+//! Response is a projection after the integrator: a particle found inside a collider (or closer than its
+//! `margin`) is moved to the surface (plus margin) and its velocity relative to the collider is corrected:
+//! the approaching normal part is reversed and scaled by the restitution `e` (zeroed below
+//! `restitution_threshold`, so resting contact does not jitter), and the tangential part loses up to
+//! `μ |Δv_n|` (Coulomb's law for the normal impulse just applied). Up to three sweeps over the colliders run
+//! so a particle pushed out of one into another (a ground-wall corner) ends outside both.
+//!
+//! parry3d works in `f32`; with an `f64` model the query point is rounded to `f32` and only contacts are
+//! affected by that rounding. The accuracy references have no colliders.
+
+use crate::error::MeshError;
+use crate::mesh::Mesh;
+use glam::{Quat, Vec3};
+use parry3d::bounding_volume::{Aabb, BoundingVolume};
+use parry3d::math::Pose;
+use parry3d::query::PointQueryWithLocation;
+use parry3d::shape::{FeatureId, SharedShape, TriMeshFlags};
+
+/// A static or kinematically moving collision shape.
+#[derive(Clone)]
+pub struct Collider {
+    /// The shape, in its local frame.
+    pub shape: SharedShape,
+    /// Pose at time 0.
+    pub pose: Pose,
+    /// Linear velocity [m/s] (constant).
+    pub linear_velocity: Vec3,
+    /// Angular velocity [rad/s] about the pose's origin (constant).
+    pub angular_velocity: Vec3,
+    /// Restitution `e` in [0, 1] for normal impacts. Default 0.3.
+    pub restitution: f32,
+    /// Normal speed [m/s] below which restitution is 0. Default 0.05.
+    pub restitution_threshold: f32,
+    /// Coulomb friction coefficient `μ ≥ 0`. Default 0.4.
+    pub friction: f32,
+    /// Skin thickness [m] kept between particles and the surface. Default 0.
+    pub margin: f32,
+}
+
+impl std::fmt::Debug for Collider {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Collider")
+            .field("shape", &self.shape.shape_type())
+            .field("pose", &self.pose)
+            .field("linear_velocity", &self.linear_velocity)
+            .field("angular_velocity", &self.angular_velocity)
+            .field("restitution", &self.restitution)
+            .field("friction", &self.friction)
+            .field("margin", &self.margin)
+            .finish()
+    }
+}
+
+impl Collider {
+    /// A collider from any parry3d shape at `pose`.
+    pub fn new(shape: SharedShape, pose: Pose) -> Self {
+        Collider {
+            shape,
+            pose,
+            linear_velocity: Vec3::ZERO,
+            angular_velocity: Vec3::ZERO,
+            restitution: 0.3,
+            restitution_threshold: 0.05,
+            friction: 0.4,
+            margin: 0.0,
+        }
+    }
+
+    /// The horizontal ground `y = height` (solid below).
+    pub fn ground(height: f32) -> Self {
+        Self::plane(Vec3::new(0.0, height, 0.0), Vec3::Y)
+    }
+
+    /// The half-space behind the plane through `point` with outward `normal` (a wall).
+    pub fn plane(point: Vec3, normal: Vec3) -> Self {
+        Self::new(
+            SharedShape::halfspace(normal.normalize()),
+            Pose::from_translation(point),
+        )
+    }
+
+    /// A solid ball.
+    pub fn ball(center: Vec3, radius: f32) -> Self {
+        Self::new(SharedShape::ball(radius), Pose::from_translation(center))
+    }
+
+    /// A solid axis-aligned box (rotate it with [`Collider::with_rotation`]).
+    pub fn cuboid(center: Vec3, half_extents: Vec3) -> Self {
+        Self::new(
+            SharedShape::cuboid(half_extents.x, half_extents.y, half_extents.z),
+            Pose::from_translation(center),
+        )
+    }
+
+    /// A solid capsule between `a` and `b` with `radius`.
+    pub fn capsule(a: Vec3, b: Vec3, radius: f32) -> Self {
+        Self::new(SharedShape::capsule(a, b, radius), Pose::IDENTITY)
+    }
+
+    /// A solid triangle mesh (closed and outward-facing, so inside is defined).
+    pub fn trimesh(mesh: &Mesh) -> Result<Self, MeshError> {
+        if !mesh.is_closed() {
+            let topo = mesh.topology();
+            let e = topo
+                .boundary_edges()
+                .next()
+                .map(|e| topo.edges[e])
+                .unwrap_or([0, 0]);
+            return Err(MeshError::Open {
+                boundary_edges: topo.boundary_edges().count(),
+                a: e[0],
+                b: e[1],
+            });
+        }
+        let mut m = mesh.clone();
+        m.orient_outward();
+        let verts = m.positions().iter().map(|p| p.as_vec3()).collect();
+        let shape =
+            SharedShape::trimesh_with_flags(verts, m.triangles().to_vec(), TriMeshFlags::ORIENTED)
+                .map_err(|e| MeshError::Io {
+                    path: "<trimesh collider>".into(),
+                    message: format!("{e:?}"),
+                })?;
+        Ok(Self::new(shape, Pose::IDENTITY))
+    }
+
+    /// Sets restitution.
+    pub fn with_restitution(mut self, e: f32) -> Self {
+        self.restitution = e;
+        self
+    }
+
+    /// Sets Coulomb friction.
+    pub fn with_friction(mut self, mu: f32) -> Self {
+        self.friction = mu;
+        self
+    }
+
+    /// Sets the skin margin [m].
+    pub fn with_margin(mut self, margin: f32) -> Self {
+        self.margin = margin;
+        self
+    }
+
+    /// Sets the orientation at time 0.
+    pub fn with_rotation(mut self, rotation: Quat) -> Self {
+        self.pose.rotation = rotation;
+        self
+    }
+
+    /// Sets a constant linear [m/s] and angular [rad/s] velocity.
+    pub fn with_velocity(mut self, linear: Vec3, angular: Vec3) -> Self {
+        self.linear_velocity = linear;
+        self.angular_velocity = angular;
+        self
+    }
+
+    /// Pose at time `t` [s].
+    pub fn pose_at(&self, t: f64) -> Pose {
+        let mut p = self.pose;
+        p.translation += self.linear_velocity * t as f32;
+        let angle = self.angular_velocity * t as f32;
+        if angle != Vec3::ZERO {
+            p.rotation = (Quat::from_scaled_axis(angle) * p.rotation).normalize();
+        }
+        p
+    }
+
+    /// Velocity [m/s] of the collider's material at world point `x` when its pose is `pose`.
+    pub fn velocity_at(&self, pose: &Pose, x: Vec3) -> Vec3 {
+        self.linear_velocity + self.angular_velocity.cross(x - pose.translation)
+    }
+
+    /// A bounding box at `pose`, grown by the margin.
+    pub fn aabb(&self, pose: &Pose) -> Aabb {
+        self.shape
+            .compute_aabb(pose)
+            .loosened(self.margin.max(0.0) + 1e-6)
+    }
+
+    /// Resolves one particle against this collider. Returns the corrected position and velocity if it was in
+    /// contact, `None` otherwise.
+    pub fn resolve(&self, pose: &Pose, aabb: &Aabb, x: Vec3, v: Vec3) -> Option<(Vec3, Vec3)> {
+        if !aabb.contains_local_point(x) {
+            return None;
+        }
+        let local = pose.inverse_transform_point(x);
+        let proj = self.shape.project_local_point(local, true);
+        let delta = proj.point - local;
+        let dist = delta.length();
+        let n_local = if proj.is_inside {
+            if dist > 1e-6 {
+                delta / dist
+            } else {
+                // On (or within rounding of) the surface: the feature's normal is robust where `delta` is noise.
+                self.surface_normal(local)
+            }
+        } else if dist < self.margin && dist > 0.0 {
+            -delta / dist
+        } else {
+            return None;
+        };
+        let target = proj.point + n_local * self.margin;
+        let n = pose.rotation * n_local;
+        let x_new = pose.transform_point(target);
+        let v_col = self.velocity_at(pose, x_new);
+        let v_rel = v - v_col;
+        let vn = v_rel.dot(n);
+        if vn >= 0.0 {
+            return Some((x_new, v));
+        }
+        let vn_new = if -vn > self.restitution_threshold {
+            -self.restitution * vn
+        } else {
+            0.0
+        };
+        let vt = v_rel - n * vn;
+        let vt_len = vt.length();
+        let scale = if vt_len > 0.0 {
+            (1.0 - self.friction * (vn_new - vn) / vt_len).max(0.0)
+        } else {
+            0.0
+        };
+        Some((x_new, v_col + vt * scale + n * vn_new))
+    }
+
+    /// Outward normal of the surface feature nearest to the local point `local`.
+    fn surface_normal(&self, local: Vec3) -> Vec3 {
+        if let Some(tm) = self.shape.as_trimesh() {
+            let (_, (tri, _)) = tm.project_local_point_and_get_location(local, true);
+            return tm.triangle(tri).normal().unwrap_or(Vec3::Y);
+        }
+        let (p, feat) = self.shape.project_local_point_and_get_feature(local);
+        if feat == FeatureId::Unknown {
+            return Vec3::Y;
+        }
+        self.shape
+            .feature_normal_at_point(0, feat, p.point)
+            .unwrap_or(Vec3::Y)
+    }
+}

@@ -1,0 +1,173 @@
+//! Errors. Every fallible public function returns one of these; nothing on a user-reachable path panics.
+
+use thiserror::Error;
+
+/// A mesh that cannot be simulated, with what is wrong and where.
+#[derive(Debug, Error, Clone, PartialEq)]
+pub enum MeshError {
+    /// No vertices or no triangles.
+    #[error("mesh is empty: {vertices} vertices, {triangles} triangles")]
+    Empty {
+        /// Vertex count.
+        vertices: usize,
+        /// Triangle count.
+        triangles: usize,
+    },
+    /// A coordinate is NaN or infinite.
+    #[error("vertex {vertex} has a non-finite coordinate {value:?} (NaN or infinite)")]
+    NonFinite {
+        /// Vertex index.
+        vertex: usize,
+        /// The coordinates.
+        value: [f64; 3],
+    },
+    /// A triangle names a vertex that does not exist.
+    #[error(
+        "triangle {triangle} refers to vertex {index}, but the mesh has only {vertex_count} vertices"
+    )]
+    IndexOutOfRange {
+        /// Triangle index.
+        triangle: usize,
+        /// The bad index.
+        index: u64,
+        /// Number of vertices.
+        vertex_count: usize,
+    },
+    /// A triangle repeats a vertex or has (numerically) zero area.
+    #[error("triangle {triangle} {vertices:?} is degenerate: {reason}")]
+    Degenerate {
+        /// Triangle index.
+        triangle: usize,
+        /// Its vertices.
+        vertices: [u32; 3],
+        /// Repeated vertex or zero area.
+        reason: &'static str,
+    },
+    /// More than two triangles share an edge.
+    #[error(
+        "edge ({a}, {b}) is non-manifold: shared by {faces} triangles (at most 2 allowed), e.g. triangles {examples:?}"
+    )]
+    NonManifoldEdge {
+        /// Edge end.
+        a: u32,
+        /// Edge end.
+        b: u32,
+        /// How many triangles share it.
+        faces: usize,
+        /// Up to three of them.
+        examples: Vec<u32>,
+    },
+    /// Two triangles sharing an edge traverse it in the same direction (normals disagree).
+    #[error(
+        "inconsistent winding: triangles {t0} and {t1} both traverse edge ({a} -> {b}) in the same direction; flip one of them"
+    )]
+    InconsistentWinding {
+        /// Edge start.
+        a: u32,
+        /// Edge end.
+        b: u32,
+        /// First triangle.
+        t0: u32,
+        /// Second triangle.
+        t1: u32,
+    },
+    /// A closed surface is needed (a pressure model) but the mesh has boundary edges.
+    #[error(
+        "mesh is open ({boundary_edges} boundary edges, e.g. ({a}, {b})): a gas pressure model needs a closed surface; add it as cloth, or close the holes"
+    )]
+    Open {
+        /// Count of boundary edges.
+        boundary_edges: usize,
+        /// One boundary edge end.
+        a: u32,
+        /// The other end.
+        b: u32,
+    },
+    /// A closed mesh whose normals point inwards, and reorientation was not allowed.
+    #[error(
+        "closed mesh faces inwards (signed volume {volume:.6e} m^3 < 0); enable reorientation or flip its winding"
+    )]
+    InwardFacing {
+        /// Signed volume.
+        volume: f64,
+    },
+    /// Reading or writing a file failed.
+    #[error("{path}: {message}")]
+    Io {
+        /// The file.
+        path: String,
+        /// What failed.
+        message: String,
+    },
+}
+
+/// A model that cannot be built from the given parameters.
+#[derive(Debug, Error, Clone, PartialEq)]
+pub enum ModelError {
+    /// The mesh is unusable.
+    #[error("mesh: {0}")]
+    Mesh(#[from] MeshError),
+    /// A parameter is out of its valid range.
+    #[error("invalid parameter `{name}` = {value}: {expected}")]
+    Parameter {
+        /// The parameter.
+        name: &'static str,
+        /// Its value.
+        value: f64,
+        /// What it must be.
+        expected: &'static str,
+    },
+    /// A particle index (a pin, say) does not exist.
+    #[error("`{name}` names particle {index}, but the body has only {count} particles")]
+    ParticleOutOfRange {
+        /// The parameter.
+        name: &'static str,
+        /// The index.
+        index: usize,
+        /// Particle count.
+        count: usize,
+    },
+    /// Nothing was added.
+    #[error("the model is empty: add a soft body, a cloth or particles first")]
+    Empty,
+}
+
+/// A step that could not be completed.
+#[derive(Debug, Error, Clone, PartialEq)]
+pub enum StepError {
+    /// The state became NaN or infinite.
+    #[error(
+        "state blew up at t = {time:.6} s: particle {particle} has a non-finite {what}; the time step {dt:e} s is probably above the stability limit (try more substeps, the implicit integrator, or softer springs)"
+    )]
+    NonFinite {
+        /// Simulation time.
+        time: f64,
+        /// The step size.
+        dt: f64,
+        /// First particle found non-finite.
+        particle: usize,
+        /// position or velocity.
+        what: &'static str,
+    },
+    /// The time step is not positive and finite.
+    #[error("time step must be positive and finite, got {0}")]
+    BadTimeStep(f64),
+    /// The state does not belong to this model.
+    #[error("state has {state} particles but the model has {model}")]
+    StateMismatch {
+        /// Particles in the state.
+        state: usize,
+        /// Particles in the model.
+        model: usize,
+    },
+    /// The implicit solver's conjugate gradients did not converge.
+    #[error(
+        "conjugate gradients did not converge in {iterations} iterations (relative residual {residual:e})"
+    )]
+    NoConvergence {
+        /// Iterations done.
+        iterations: usize,
+        /// Final relative residual.
+        residual: f64,
+    },
+}

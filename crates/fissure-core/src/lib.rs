@@ -1,0 +1,29 @@
+#![doc = include_str!("../README.md")]
+#![warn(missing_docs)]
+
+pub mod collision;
+pub mod csr;
+pub mod error;
+mod forces;
+pub mod mesh;
+pub mod model;
+mod par;
+pub mod real;
+pub mod solver;
+pub mod timers;
+pub mod topology;
+pub mod wind;
+
+pub use collision::Collider;
+pub use error::{MeshError, ModelError, StepError};
+pub use glam;
+pub use mesh::Mesh;
+pub use model::{
+    BodyHandle, BodyKind, ClothOptions, Damping, DampingModel, Energy, Gas, Mass, Model,
+    ModelBuilder, SoftBodyOptions, SpringKind, State, Stiffness,
+};
+pub use parry3d;
+pub use real::{Real, Vector3};
+pub use solver::{CgStats, CpuSolver, Integrator, Solver, SolverConfig};
+pub use timers::{Stage, StageTimers};
+pub use wind::{Aero, WindField};

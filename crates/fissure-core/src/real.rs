@@ -1,0 +1,197 @@
+//! One physics source for two precisions.
+//!
+//! Every force, integrator and collision routine is written once against [`Real`] (the scalar) and its
+//! [`Real::V`] (a 3-vector of that scalar). `f32` with [`glam::Vec3`] is the fast path; `f64` with
+//! [`glam::DVec3`] produces the reference solutions the accuracy tests and benchmarks compare against.
+//! Meshes and builder parameters are always `f64`; [`crate::ModelBuilder::finalize`] rounds them once.
+
+use glam::{DVec3, Vec3};
+use std::fmt::{Debug, Display};
+use std::iter::Sum;
+use std::ops::{Add, AddAssign, Div, DivAssign, Mul, MulAssign, Neg, Sub, SubAssign};
+
+/// A floating-point scalar the simulation can run in (`f32` or `f64`).
+pub trait Real:
+    Copy
+    + Send
+    + Sync
+    + Debug
+    + Display
+    + Default
+    + PartialEq
+    + PartialOrd
+    + 'static
+    + Add<Output = Self>
+    + Sub<Output = Self>
+    + Mul<Output = Self>
+    + Div<Output = Self>
+    + Neg<Output = Self>
+    + AddAssign
+    + SubAssign
+    + MulAssign
+    + DivAssign
+    + Sum
+{
+    /// The 3-vector of this precision.
+    type V: Vector3<Self>;
+    /// 0.
+    const ZERO: Self;
+    /// 1.
+    const ONE: Self;
+    /// Machine epsilon.
+    const EPSILON: Self;
+    /// Converts (rounding) from `f64`.
+    fn from_f64(x: f64) -> Self;
+    /// Converts (exactly) to `f64`.
+    fn to_f64(self) -> f64;
+    /// Square root.
+    fn sqrt(self) -> Self;
+    /// Absolute value.
+    fn abs(self) -> Self;
+    /// Larger of the two.
+    fn max(self, o: Self) -> Self;
+    /// Smaller of the two.
+    fn min(self, o: Self) -> Self;
+    /// Neither NaN nor infinite.
+    fn is_finite(self) -> bool;
+}
+
+/// A 3-vector over a [`Real`] scalar; implemented by [`Vec3`] and [`DVec3`].
+pub trait Vector3<R>:
+    Copy
+    + Send
+    + Sync
+    + Debug
+    + Default
+    + PartialEq
+    + 'static
+    + Add<Output = Self>
+    + Sub<Output = Self>
+    + Neg<Output = Self>
+    + Mul<R, Output = Self>
+    + Div<R, Output = Self>
+    + AddAssign
+    + SubAssign
+    + MulAssign<R>
+{
+    /// (0, 0, 0).
+    const ZERO: Self;
+    /// Builds a vector.
+    fn new(x: R, y: R, z: R) -> Self;
+    /// Dot product.
+    fn dot(self, o: Self) -> R;
+    /// Cross product.
+    fn cross(self, o: Self) -> Self;
+    /// Euclidean length.
+    fn length(self) -> R;
+    /// Squared length.
+    fn length_squared(self) -> R;
+    /// Component-wise product.
+    fn mul_elem(self, o: Self) -> Self;
+    /// Component-wise reciprocal.
+    fn recip(self) -> Self;
+    /// All components finite.
+    fn is_finite(self) -> bool;
+    /// From an `f64` vector (rounding).
+    fn from_dvec3(v: DVec3) -> Self;
+    /// To an `f64` vector (exact).
+    fn to_dvec3(self) -> DVec3;
+    /// To an `f32` vector (rounding), for parry3d queries and rendering.
+    fn to_vec3(self) -> Vec3;
+    /// From an `f32` vector (exact).
+    fn from_vec3(v: Vec3) -> Self;
+}
+
+macro_rules! impl_real {
+    ($t:ty, $v:ty) => {
+        impl Real for $t {
+            type V = $v;
+            const ZERO: Self = 0.0;
+            const ONE: Self = 1.0;
+            const EPSILON: Self = <$t>::EPSILON;
+            #[inline(always)]
+            fn from_f64(x: f64) -> Self {
+                x as $t
+            }
+            #[inline(always)]
+            fn to_f64(self) -> f64 {
+                self as f64
+            }
+            #[inline(always)]
+            fn sqrt(self) -> Self {
+                <$t>::sqrt(self)
+            }
+            #[inline(always)]
+            fn abs(self) -> Self {
+                <$t>::abs(self)
+            }
+            #[inline(always)]
+            fn max(self, o: Self) -> Self {
+                <$t>::max(self, o)
+            }
+            #[inline(always)]
+            fn min(self, o: Self) -> Self {
+                <$t>::min(self, o)
+            }
+            #[inline(always)]
+            fn is_finite(self) -> bool {
+                <$t>::is_finite(self)
+            }
+        }
+
+        impl Vector3<$t> for $v {
+            const ZERO: Self = <$v>::ZERO;
+            #[inline(always)]
+            fn new(x: $t, y: $t, z: $t) -> Self {
+                <$v>::new(x, y, z)
+            }
+            #[inline(always)]
+            fn dot(self, o: Self) -> $t {
+                <$v>::dot(self, o)
+            }
+            #[inline(always)]
+            fn cross(self, o: Self) -> Self {
+                <$v>::cross(self, o)
+            }
+            #[inline(always)]
+            fn length(self) -> $t {
+                <$v>::length(self)
+            }
+            #[inline(always)]
+            fn length_squared(self) -> $t {
+                <$v>::length_squared(self)
+            }
+            #[inline(always)]
+            fn mul_elem(self, o: Self) -> Self {
+                self * o
+            }
+            #[inline(always)]
+            fn recip(self) -> Self {
+                <$v>::recip(self)
+            }
+            #[inline(always)]
+            fn is_finite(self) -> bool {
+                <$v>::is_finite(self)
+            }
+            #[inline(always)]
+            fn from_dvec3(v: DVec3) -> Self {
+                <$v>::new(v.x as $t, v.y as $t, v.z as $t)
+            }
+            #[inline(always)]
+            fn to_dvec3(self) -> DVec3 {
+                DVec3::new(self.x as f64, self.y as f64, self.z as f64)
+            }
+            #[inline(always)]
+            fn to_vec3(self) -> Vec3 {
+                Vec3::new(self.x as f32, self.y as f32, self.z as f32)
+            }
+            #[inline(always)]
+            fn from_vec3(v: Vec3) -> Self {
+                <$v>::new(v.x as $t, v.y as $t, v.z as $t)
+            }
+        }
+    };
+}
+
+impl_real!(f32, Vec3);
+impl_real!(f64, DVec3);

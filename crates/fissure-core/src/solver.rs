@@ -1,0 +1,860 @@
+//! The CPU solver: `solver.step(&model, &mut state, dt)`.
+//!
+//! A step reads top to bottom like the seed's algorithm (step 4): forces of the springs (4.2), the surface
+//! pass for volume, pressure and wind (4.3–4.4), the per-particle gather fused with the integrator's update
+//! (4.5), then collisions. A stage the model does not need is skipped entirely (no gas: no volume pass; no
+//! wind: no aerodynamics; no colliders: no collision pass; pinned particles are not integrated).
+//!
+//! | integrator | order | force evaluations / step | stability (undamped spring, `ω = √(k/m)`) |
+//! |---|---|---|---|
+//! | [`Integrator::SymplecticEuler`] (seed eqs. 3–5) | 1 | 1 | `dt < 2/ω` |
+//! | [`Integrator::VelocityVerlet`] | 2 (1 in the damping term) | 2 | `dt < 2/ω` |
+//! | [`Integrator::Rk4`] | 4 | 4 | `dt < 2.785/ω` (slowly loses energy) |
+//! | [`Integrator::ImplicitEuler`] (Baraff–Witkin) | 1 | 1 + CG | unconditional for the linearised system |
+//!
+//! For a mesh, `ω` is the largest natural frequency; a Gershgorin bound is `ω² ≤ max_i Σ_s 4 k_s / m_i`.
+
+use crate::error::StepError;
+use crate::forces::{ForceScratch, particle_force};
+use crate::model::{DampingModel, Model, State};
+use crate::par;
+use crate::real::{Real, Vector3};
+use crate::timers::{Stage, StageTimers};
+use crate::topology::NONE;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::time::Instant;
+
+/// The time integrators.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Integrator {
+    /// Semi-implicit (symplectic) Euler, the seed's eqs. (3)–(5): `v += dt a(x, v); x += dt v`. Order 1.
+    #[default]
+    SymplecticEuler,
+    /// Velocity Verlet (kick–drift–kick). Order 2 for position-dependent forces; the damping force is
+    /// evaluated at the half-step velocity, which makes the damping term first order.
+    VelocityVerlet,
+    /// Classical fourth-order Runge–Kutta. Order 4.
+    Rk4,
+    /// Linearised backward Euler (Baraff & Witkin 1998) solved matrix-free by preconditioned conjugate
+    /// gradients. Order 1, unconditionally stable for the linearised system. Spring Jacobians are exact when
+    /// stretched; for compressed springs the transverse term `(1 - L0/l)` is clamped at 0 (it is negative, would
+    /// make the system indefinite and CG fail; Choi & Ko 2002). Pressure enters with its rank-one Jacobian
+    /// `nRT/V² g gᵀ` (`g = ∂V/∂x`), which is what keeps a stiff balloon stable at large steps.
+    ImplicitEuler,
+}
+
+impl Integrator {
+    /// All integrators.
+    pub const ALL: [Integrator; 4] = [
+        Integrator::SymplecticEuler,
+        Integrator::VelocityVerlet,
+        Integrator::Rk4,
+        Integrator::ImplicitEuler,
+    ];
+
+    /// Global order of accuracy.
+    pub fn order(self) -> u32 {
+        match self {
+            Integrator::SymplecticEuler | Integrator::ImplicitEuler => 1,
+            Integrator::VelocityVerlet => 2,
+            Integrator::Rk4 => 4,
+        }
+    }
+
+    /// Short name.
+    pub fn name(self) -> &'static str {
+        match self {
+            Integrator::SymplecticEuler => "symplectic_euler",
+            Integrator::VelocityVerlet => "velocity_verlet",
+            Integrator::Rk4 => "rk4",
+            Integrator::ImplicitEuler => "implicit_euler",
+        }
+    }
+}
+
+/// Solver settings.
+#[derive(Clone, Debug, PartialEq)]
+pub struct SolverConfig {
+    /// The integrator. Default symplectic Euler.
+    pub integrator: Integrator,
+    /// Relative residual `|r| / |b|` at which CG stops (implicit only). Default 1e-5.
+    pub cg_tolerance: f64,
+    /// CG iteration cap (implicit only); the last iterate is used if reached. Default 200.
+    pub cg_max_iterations: usize,
+    /// Check every step for NaN/inf and return [`StepError::NonFinite`]. Default true (cost: a compare per
+    /// particle inside the update pass).
+    pub check_finite: bool,
+}
+
+impl Default for SolverConfig {
+    fn default() -> Self {
+        SolverConfig {
+            integrator: Integrator::SymplecticEuler,
+            cg_tolerance: 1e-5,
+            cg_max_iterations: 200,
+            check_finite: true,
+        }
+    }
+}
+
+impl SolverConfig {
+    /// Default settings with `integrator`.
+    pub fn with(integrator: Integrator) -> Self {
+        SolverConfig {
+            integrator,
+            ..Default::default()
+        }
+    }
+}
+
+/// What every solver (CPU, GPU) offers.
+pub trait Solver<R: Real> {
+    /// Advances `state` by `dt` [s].
+    fn step(&mut self, model: &Model<R>, state: &mut State<R>, dt: f64) -> Result<(), StepError>;
+    /// Tells the solver the model's arrays changed size or content (after a fracture, say).
+    fn notify_model_changed(&mut self, model: &Model<R>);
+    /// Per-stage time spent so far.
+    fn timers(&self) -> &StageTimers;
+    /// Clears the stage timers.
+    fn reset_timers(&mut self);
+}
+
+/// Statistics of the last implicit solve.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct CgStats {
+    /// Iterations taken.
+    pub iterations: usize,
+    /// Final relative residual.
+    pub residual: f64,
+}
+
+/// The multi-threaded CPU solver (rayon), generic over precision.
+#[derive(Clone, Debug, Default)]
+pub struct CpuSolver<R: Real = f32> {
+    /// Settings.
+    pub config: SolverConfig,
+    f: ForceScratch<R>,
+    rk: Rk4Scratch<R>,
+    imp: ImplicitScratch<R>,
+    sized_for: Option<(usize, usize, usize, usize, Integrator)>,
+    timers: StageTimers,
+    /// Statistics of the last implicit solve.
+    pub cg: CgStats,
+}
+
+#[derive(Clone, Debug, Default)]
+struct Rk4Scratch<R: Real> {
+    xt: Vec<R::V>,
+    vt: Vec<R::V>,
+    ax: Vec<R::V>,
+    av: Vec<R::V>,
+}
+
+#[derive(Clone, Debug, Default)]
+struct ImplicitScratch<R: Real> {
+    r: Vec<R::V>,
+    z: Vec<R::V>,
+    p: Vec<R::V>,
+    ap: Vec<R::V>,
+    dv: Vec<R::V>,
+    diag: Vec<R::V>,
+    g: Vec<R::V>,
+    /// Unit direction of each spring.
+    u: Vec<R::V>,
+    /// `[h² ks (1 - L0/l)+, h² ks, iso + damping, axial + damping]`: stiffness-only and system coefficients of the
+    /// spring block `iso I + (axial - iso) u uᵀ`.
+    coef: Vec<[R; 4]>,
+    /// `h² nRT / V²` per body.
+    body_c: Vec<R>,
+    /// `g · p` per body.
+    body_dot: Vec<R>,
+    partials: Vec<R>,
+}
+
+impl<R: Real> CpuSolver<R> {
+    /// A solver with `config`.
+    pub fn new(config: SolverConfig) -> Self {
+        CpuSolver {
+            config,
+            ..Default::default()
+        }
+    }
+
+    /// A solver with default settings and `integrator`.
+    pub fn with_integrator(integrator: Integrator) -> Self {
+        Self::new(SolverConfig::with(integrator))
+    }
+
+    fn ensure_sized(&mut self, m: &Model<R>) {
+        let key = (
+            m.particle_count(),
+            m.spring_count(),
+            m.tri_count(),
+            m.body_count(),
+            self.config.integrator,
+        );
+        if Some(key) == self.sized_for {
+            return;
+        }
+        self.sized_for = Some(key);
+        self.f.resize(m);
+        let n = m.particle_count();
+        let z = R::V::ZERO;
+        let rk = if self.config.integrator == Integrator::Rk4 {
+            n
+        } else {
+            0
+        };
+        for v in [
+            &mut self.rk.xt,
+            &mut self.rk.vt,
+            &mut self.rk.ax,
+            &mut self.rk.av,
+        ] {
+            v.resize(rk, z);
+        }
+        let imp = self.config.integrator == Integrator::ImplicitEuler;
+        let ni = if imp { n } else { 0 };
+        let i = &mut self.imp;
+        for v in [
+            &mut i.r,
+            &mut i.z,
+            &mut i.p,
+            &mut i.ap,
+            &mut i.dv,
+            &mut i.diag,
+        ] {
+            v.resize(ni, z);
+        }
+        i.g.resize(if imp && m.has_pressure() { n } else { 0 }, z);
+        i.u.resize(if imp { m.spring_count() } else { 0 }, z);
+        i.coef
+            .resize(if imp { m.spring_count() } else { 0 }, [R::ZERO; 4]);
+        i.body_c.resize(m.body_count(), R::ZERO);
+        i.body_dot.resize(m.body_count(), R::ZERO);
+    }
+
+    /// Springs and surface passes at `(q, qd)`, timed. Returns whether triangle forces exist.
+    fn forces(&mut self, m: &Model<R>, q: &[R::V], qd: &[R::V], time: f64) -> bool {
+        if m.spring_count() > 0 {
+            let t = Instant::now();
+            self.f.springs(m, q, qd);
+            self.timers.add(Stage::Springs, t);
+        }
+        let surface = m.has_pressure() || m.has_wind();
+        if surface {
+            let t = Instant::now();
+            self.f.surface(m, q, qd, time);
+            self.timers.add(Stage::Surface, t);
+        }
+        surface
+    }
+
+    fn collide(&mut self, m: &Model<R>, state: &mut State<R>) {
+        if !m.has_colliders() {
+            return;
+        }
+        let t0 = Instant::now();
+        let time = state.time;
+        let poses: Vec<_> = m.colliders.iter().map(|c| c.pose_at(time)).collect();
+        let boxes: Vec<_> = m
+            .colliders
+            .iter()
+            .zip(&poses)
+            .map(|(c, p)| c.aabb(p))
+            .collect();
+        let inv_mass = &m.particle_inv_mass;
+        par::chunks2(
+            &mut state.particle_q,
+            &mut state.particle_qd,
+            |start, qs, vs| {
+                for k in 0..qs.len() {
+                    if inv_mass[start + k] == R::ZERO {
+                        continue;
+                    }
+                    let (mut x, mut v) = (qs[k].to_vec3(), vs[k].to_vec3());
+                    let mut touched = false;
+                    // A push out of one collider can land in another (a corner): sweep until clear, at most 3 times.
+                    for _sweep in 0..3 {
+                        let mut any = false;
+                        for (ci, c) in m.colliders.iter().enumerate() {
+                            if let Some((x2, v2)) = c.resolve(&poses[ci], &boxes[ci], x, v) {
+                                x = x2;
+                                v = v2;
+                                any = true;
+                            }
+                        }
+                        touched |= any;
+                        if !any || m.colliders.len() == 1 {
+                            break;
+                        }
+                    }
+                    if touched {
+                        qs[k] = R::V::from_vec3(x);
+                        vs[k] = R::V::from_vec3(v);
+                    }
+                }
+            },
+        );
+        self.timers.add(Stage::Collide, t0);
+    }
+
+    fn symplectic_euler(&mut self, m: &Model<R>, s: &mut State<R>, dt: R, blown: &AtomicBool) {
+        let surface = self.forces(m, &s.particle_q, &s.particle_qd, s.time);
+        let t = Instant::now();
+        let f = &self.f;
+        par::chunks2(&mut s.particle_q, &mut s.particle_qd, |start, qs, vs| {
+            let mut bad = false;
+            for k in 0..qs.len() {
+                let i = start + k;
+                let w = m.particle_inv_mass[i];
+                if w == R::ZERO {
+                    continue;
+                }
+                vs[k] += particle_force(m, f, surface, i) * (w * dt);
+                qs[k] += vs[k] * dt;
+                bad |= !vs[k].is_finite();
+            }
+            if bad {
+                blown.store(true, Ordering::Relaxed);
+            }
+        });
+        self.timers.add(Stage::Integrate, t);
+    }
+
+    fn velocity_verlet(&mut self, m: &Model<R>, s: &mut State<R>, dt: R, blown: &AtomicBool) {
+        let half = dt * R::from_f64(0.5);
+        // Kick half a step, drift a whole step.
+        let surface = self.forces(m, &s.particle_q, &s.particle_qd, s.time);
+        let t = Instant::now();
+        let f = &self.f;
+        par::chunks2(&mut s.particle_q, &mut s.particle_qd, |start, qs, vs| {
+            for k in 0..qs.len() {
+                let i = start + k;
+                let w = m.particle_inv_mass[i];
+                if w != R::ZERO {
+                    vs[k] += particle_force(m, f, surface, i) * (w * half);
+                    qs[k] += vs[k] * dt;
+                }
+            }
+        });
+        self.timers.add(Stage::Integrate, t);
+        // Kick the second half with the forces at the new positions (and half-step velocities).
+        let surface = self.forces(m, &s.particle_q, &s.particle_qd, s.time + dt.to_f64());
+        let t = Instant::now();
+        let f = &self.f;
+        par::chunks(&mut s.particle_qd, |start, vs| {
+            let mut bad = false;
+            for k in 0..vs.len() {
+                let i = start + k;
+                let w = m.particle_inv_mass[i];
+                if w != R::ZERO {
+                    vs[k] += particle_force(m, f, surface, i) * (w * half);
+                    bad |= !vs[k].is_finite();
+                }
+            }
+            if bad {
+                blown.store(true, Ordering::Relaxed);
+            }
+        });
+        self.timers.add(Stage::Integrate, t);
+    }
+
+    fn rk4(&mut self, m: &Model<R>, s: &mut State<R>, dt: R, blown: &AtomicBool) {
+        let mut rk = std::mem::take(&mut self.rk);
+        rk.xt.copy_from_slice(&s.particle_q);
+        rk.vt.copy_from_slice(&s.particle_qd);
+        let weight = [1.0 / 6.0, 2.0 / 6.0, 2.0 / 6.0, 1.0 / 6.0].map(R::from_f64);
+        let c_next = [0.5, 0.5, 1.0].map(|c| R::from_f64(c) * dt);
+        let c_time = [0.0, 0.5, 0.5, 1.0];
+        for stage in 0..4 {
+            let surface = self.forces(m, &rk.xt, &rk.vt, s.time + c_time[stage] * dt.to_f64());
+            let t = Instant::now();
+            let f = &self.f;
+            let ws = weight[stage];
+            let first = stage == 0;
+            // Slopes of this stage: kx = stage velocity, kv = acceleration. Accumulate, then either set up the next
+            // stage or (last stage) apply the weighted sum to the state.
+            let slope = |i: usize, vt: R::V| -> (R::V, R::V) {
+                let w = m.particle_inv_mass[i];
+                if w == R::ZERO {
+                    (R::V::ZERO, R::V::ZERO)
+                } else {
+                    (vt, particle_force(m, f, surface, i) * w)
+                }
+            };
+            if stage < 3 {
+                let cn = c_next[stage];
+                let (x0, v0) = (&s.particle_q, &s.particle_qd);
+                par::chunks4(
+                    &mut rk.xt,
+                    &mut rk.vt,
+                    &mut rk.ax,
+                    &mut rk.av,
+                    |start, xs, vs, axs, avs| {
+                        for k in 0..xs.len() {
+                            let i = start + k;
+                            let (kx, kv) = slope(i, vs[k]);
+                            if first {
+                                axs[k] = kx * ws;
+                                avs[k] = kv * ws;
+                            } else {
+                                axs[k] += kx * ws;
+                                avs[k] += kv * ws;
+                            }
+                            xs[k] = x0[i] + kx * cn;
+                            vs[k] = v0[i] + kv * cn;
+                        }
+                    },
+                );
+            } else {
+                let vt = &rk.vt;
+                par::chunks4(
+                    &mut s.particle_q,
+                    &mut s.particle_qd,
+                    &mut rk.ax,
+                    &mut rk.av,
+                    |start, xs, vs, axs, avs| {
+                        let mut bad = false;
+                        for k in 0..xs.len() {
+                            let i = start + k;
+                            let (kx, kv) = slope(i, vt[i]);
+                            xs[k] += (axs[k] + kx * ws) * dt;
+                            vs[k] += (avs[k] + kv * ws) * dt;
+                            bad |= !vs[k].is_finite();
+                        }
+                        if bad {
+                            blown.store(true, Ordering::Relaxed);
+                        }
+                    },
+                );
+            }
+            self.timers.add(Stage::Integrate, t);
+        }
+        self.rk = rk;
+    }
+
+    fn implicit_euler(
+        &mut self,
+        m: &Model<R>,
+        s: &mut State<R>,
+        dt: R,
+        blown: &AtomicBool,
+    ) -> Result<(), StepError> {
+        let h = dt;
+        let h2 = h * h;
+        let surface = self.forces(m, &s.particle_q, &s.particle_qd, s.time);
+        let t = Instant::now();
+        let mut im = std::mem::take(&mut self.imp);
+        let pressure = m.has_pressure();
+        let (q, v0) = (&s.particle_q, &s.particle_qd);
+        // Spring blocks.
+        let projected = m.damping_model == DampingModel::Projected;
+        {
+            let coef = &mut im.coef;
+            let u = &mut im.u;
+            par::chunks2(u, coef, |start, us, cs| {
+                for k in 0..us.len() {
+                    let sidx = start + k;
+                    let [i, j] = m.spring_indices[sidx];
+                    let d = q[j as usize] - q[i as usize];
+                    let l = d.length();
+                    let (ks, kd, l0) = (
+                        m.spring_stiffness[sidx],
+                        m.spring_damping[sidx],
+                        m.spring_rest_length[sidx],
+                    );
+                    if l > R::ZERO {
+                        us[k] = d * (R::ONE / l);
+                        let iso = h2 * ks * (R::ONE - l0 / l).max(R::ZERO);
+                        let axial = h2 * ks;
+                        let hd = h * kd;
+                        cs[k] = if projected {
+                            [iso, axial, iso, axial + hd]
+                        } else {
+                            [iso, axial, iso + hd, axial + hd]
+                        };
+                    } else {
+                        us[k] = R::V::ZERO;
+                        let hd = if projected { R::ZERO } else { h * kd };
+                        cs[k] = [R::ZERO, R::ZERO, hd, hd];
+                    }
+                }
+            });
+        }
+        // Pressure: g = ∂V/∂x per particle and c_b = h² nRT / V².
+        if pressure {
+            let tri_cross = &self.f.tri_cross;
+            let sixth = R::from_f64(1.0 / 6.0);
+            par::chunks(&mut im.g, |start, gs| {
+                for k in 0..gs.len() {
+                    let i = start + k;
+                    let mut acc = R::V::ZERO;
+                    for &tt in m.particle_tris.row(i) {
+                        if m.body_gas_amount[m.tri_body[tt as usize] as usize] > R::ZERO {
+                            acc += tri_cross[tt as usize];
+                        }
+                    }
+                    gs[k] = acc * sixth;
+                }
+            });
+            for b in 0..m.body_count() {
+                let gas = m.body_gas_amount[b];
+                let v = self.f.body_volume[b].max(m.body_rest_volume[b] * R::from_f64(1e-3));
+                im.body_c[b] = if gas > R::ZERO {
+                    h2 * gas / (v * v)
+                } else {
+                    R::ZERO
+                };
+            }
+        }
+        // Right-hand side b = h f0 + G(y_K(v0)) - Σ c_b g (g·v0), into r (the initial guess is 0).
+        {
+            let f = &self.f;
+            par::chunks(&mut im.r, |start, rs| {
+                for k in 0..rs.len() {
+                    let i = start + k;
+                    rs[k] = if m.particle_inv_mass[i] == R::ZERO {
+                        R::V::ZERO
+                    } else {
+                        particle_force(m, f, surface, i) * h
+                    };
+                }
+            });
+        }
+        // The spring buffer is free now: reuse it for y_K(v0).
+        spring_apply(m, &im.u, &im.coef, 0, v0, &mut self.f.spring_f);
+        if pressure {
+            body_dots(m, &im.g, v0, &mut im.partials, &mut im.body_dot);
+        }
+        {
+            let f = &self.f;
+            let (g, bc, bd) = (&im.g, &im.body_c, &im.body_dot);
+            par::chunks(&mut im.r, |start, rs| {
+                for k in 0..rs.len() {
+                    let i = start + k;
+                    if m.particle_inv_mass[i] == R::ZERO {
+                        continue;
+                    }
+                    rs[k] += spring_gather(m, &f.spring_f, i);
+                    if pressure {
+                        let body = m.particle_body[i];
+                        if body != NONE && bc[body as usize] > R::ZERO {
+                            rs[k] -= g[i] * (bc[body as usize] * bd[body as usize]);
+                        }
+                    }
+                }
+            });
+        }
+        // Jacobi preconditioner: the inverse of A's diagonal.
+        {
+            let (u, coef, g, bc) = (&im.u, &im.coef, &im.g, &im.body_c);
+            par::chunks(&mut im.diag, |start, ds| {
+                for k in 0..ds.len() {
+                    let i = start + k;
+                    // Pinned particles are filtered out of the solve: a zero preconditioner keeps them at dv = 0
+                    // (and avoids 0 · ∞ when a massless anchor has no stiffness in some direction).
+                    if m.particle_inv_mass[i] == R::ZERO {
+                        ds[k] = R::V::ZERO;
+                        continue;
+                    }
+                    let mut d = R::V::new(R::ONE, R::ONE, R::ONE) * m.particle_mass[i];
+                    for &e in m.particle_springs.row(i) {
+                        let sidx = (e >> 1) as usize;
+                        let [_, _, iso, axial] = coef[sidx];
+                        let uu = u[sidx].mul_elem(u[sidx]);
+                        d += R::V::new(iso, iso, iso) + uu * (axial - iso);
+                    }
+                    if pressure {
+                        let body = m.particle_body[i];
+                        if body != NONE {
+                            d += g[i].mul_elem(g[i]) * bc[body as usize];
+                        }
+                    }
+                    ds[k] = d.recip();
+                    debug_assert!(ds[k].is_finite(), "free particle {i} has a zero diagonal");
+                }
+            });
+        }
+        self.timers.add(Stage::Integrate, t);
+        let t = Instant::now();
+        let result = self.cg_solve(m, &mut im, pressure);
+        self.timers.add(Stage::Solve, t);
+        let t = Instant::now();
+        let dv = &im.dv;
+        par::chunks2(&mut s.particle_q, &mut s.particle_qd, |start, qs, vs| {
+            let mut bad = false;
+            for k in 0..qs.len() {
+                let i = start + k;
+                if m.particle_inv_mass[i] == R::ZERO {
+                    continue;
+                }
+                vs[k] += dv[i];
+                qs[k] += vs[k] * h;
+                bad |= !vs[k].is_finite();
+            }
+            if bad {
+                blown.store(true, Ordering::Relaxed);
+            }
+        });
+        self.imp = im;
+        self.timers.add(Stage::Integrate, t);
+        result
+    }
+
+    /// Preconditioned conjugate gradients on `A dv = r` with pinned particles filtered out.
+    fn cg_solve(
+        &mut self,
+        m: &Model<R>,
+        im: &mut ImplicitScratch<R>,
+        pressure: bool,
+    ) -> Result<(), StepError> {
+        let n = m.particle_count();
+        im.dv.iter_mut().for_each(|x| *x = R::V::ZERO);
+        let bnorm2 = par::sum(n, &mut im.partials, |i| im.r[i].dot(im.r[i]));
+        self.cg = CgStats::default();
+        if bnorm2 == R::ZERO {
+            return Ok(());
+        }
+        let tol2 = R::from_f64(self.config.cg_tolerance * self.config.cg_tolerance) * bnorm2;
+        precondition::<R>(&im.r, &im.diag, &mut im.z);
+        im.p.copy_from_slice(&im.z);
+        let mut rz = par::sum(n, &mut im.partials, |i| im.r[i].dot(im.z[i]));
+        let mut rr = bnorm2;
+        let mut it = 0;
+        while it < self.config.cg_max_iterations && rr > tol2 {
+            self.apply_a(m, im, pressure);
+            let pap = par::sum(n, &mut im.partials, |i| im.p[i].dot(im.ap[i]));
+            if !(pap > R::ZERO) {
+                // A is symmetric positive definite on the free particles by construction (clamped spring blocks,
+                // positive masses, positive semidefinite pressure term): a non-positive or NaN curvature means
+                // the state itself is broken.
+                let residual = (rr / bnorm2).to_f64().sqrt();
+                self.cg = CgStats {
+                    iterations: it,
+                    residual,
+                };
+                return Err(StepError::NoConvergence {
+                    iterations: it,
+                    residual,
+                });
+            }
+            let alpha = rz / pap;
+            {
+                let (p, ap) = (&im.p, &im.ap);
+                par::chunks2(&mut im.dv, &mut im.r, |start, xs, rs| {
+                    for k in 0..xs.len() {
+                        xs[k] += p[start + k] * alpha;
+                        rs[k] -= ap[start + k] * alpha;
+                    }
+                });
+            }
+            precondition::<R>(&im.r, &im.diag, &mut im.z);
+            let rz_new = par::sum(n, &mut im.partials, |i| im.r[i].dot(im.z[i]));
+            rr = par::sum(n, &mut im.partials, |i| im.r[i].dot(im.r[i]));
+            let beta = rz_new / rz;
+            rz = rz_new;
+            let z = &im.z;
+            par::chunks(&mut im.p, |start, ps| {
+                for k in 0..ps.len() {
+                    ps[k] = z[start + k] + ps[k] * beta;
+                }
+            });
+            it += 1;
+        }
+        let residual = (rr / bnorm2).to_f64().sqrt();
+        self.cg = CgStats {
+            iterations: it,
+            residual,
+        };
+        if !residual.is_finite() {
+            return Err(StepError::NoConvergence {
+                iterations: it,
+                residual,
+            });
+        }
+        Ok(())
+    }
+
+    /// `ap = A p = M p - G(y_A(p)) + Σ c_b g (g·p)`, zero on pinned particles.
+    fn apply_a(&mut self, m: &Model<R>, im: &mut ImplicitScratch<R>, pressure: bool) {
+        spring_apply(m, &im.u, &im.coef, 2, &im.p, &mut self.f.spring_f);
+        if pressure {
+            body_dots(m, &im.g, &im.p, &mut im.partials, &mut im.body_dot);
+        }
+        let f = &self.f;
+        let (p, g, bc, bd) = (&im.p, &im.g, &im.body_c, &im.body_dot);
+        par::chunks(&mut im.ap, |start, aps| {
+            for k in 0..aps.len() {
+                let i = start + k;
+                if m.particle_inv_mass[i] == R::ZERO {
+                    aps[k] = R::V::ZERO;
+                    continue;
+                }
+                let mut y = p[i] * m.particle_mass[i] - spring_gather(m, &f.spring_f, i);
+                if pressure {
+                    let body = m.particle_body[i];
+                    if body != NONE {
+                        y += g[i] * (bc[body as usize] * bd[body as usize]);
+                    }
+                }
+                aps[k] = y;
+            }
+        });
+    }
+
+    /// The net force on every particle at `state` [N] (gravity, springs, pressure, wind; not collisions) into
+    /// `out`, which must have one entry per particle. Pinned particles get their force too.
+    pub fn compute_forces(
+        &mut self,
+        m: &Model<R>,
+        state: &State<R>,
+        out: &mut [R::V],
+    ) -> Result<(), StepError> {
+        if state.particle_q.len() != m.particle_count() || out.len() != m.particle_count() {
+            return Err(StepError::StateMismatch {
+                state: state.particle_q.len().min(out.len()),
+                model: m.particle_count(),
+            });
+        }
+        self.ensure_sized(m);
+        let surface = self.forces(m, &state.particle_q, &state.particle_qd, state.time);
+        let f = &self.f;
+        par::chunks(out, |start, os| {
+            for (k, o) in os.iter_mut().enumerate() {
+                *o = particle_force(m, f, surface, start + k);
+            }
+        });
+        Ok(())
+    }
+
+    /// Volumes of the gas bodies [m^3] as of the last force evaluation (0 for bodies without gas).
+    pub fn body_volumes(&self) -> &[R] {
+        &self.f.body_volume
+    }
+
+    fn step_inner(&mut self, m: &Model<R>, s: &mut State<R>, dt: f64) -> Result<(), StepError> {
+        if !(dt.is_finite() && dt > 0.0) {
+            return Err(StepError::BadTimeStep(dt));
+        }
+        if s.particle_q.len() != m.particle_count() || s.particle_qd.len() != m.particle_count() {
+            return Err(StepError::StateMismatch {
+                state: s.particle_q.len(),
+                model: m.particle_count(),
+            });
+        }
+        self.ensure_sized(m);
+        let t0 = Instant::now();
+        let blown = AtomicBool::new(false);
+        let h = R::from_f64(dt);
+        match self.config.integrator {
+            Integrator::SymplecticEuler => self.symplectic_euler(m, s, h, &blown),
+            Integrator::VelocityVerlet => self.velocity_verlet(m, s, h, &blown),
+            Integrator::Rk4 => self.rk4(m, s, h, &blown),
+            Integrator::ImplicitEuler => self.implicit_euler(m, s, h, &blown)?,
+        }
+        s.time += dt;
+        self.collide(m, s);
+        self.timers.steps += 1;
+        self.timers.total += t0.elapsed();
+        if self.config.check_finite && blown.load(Ordering::Relaxed) {
+            let (particle, what) = (0..m.particle_count())
+                .find_map(|i| {
+                    if !s.particle_qd[i].is_finite() {
+                        Some((i, "velocity"))
+                    } else if !s.particle_q[i].is_finite() {
+                        Some((i, "position"))
+                    } else {
+                        None
+                    }
+                })
+                .unwrap_or((0, "velocity"));
+            return Err(StepError::NonFinite {
+                time: s.time,
+                dt,
+                particle,
+                what,
+            });
+        }
+        Ok(())
+    }
+}
+
+impl<R: Real> Solver<R> for CpuSolver<R> {
+    fn step(&mut self, model: &Model<R>, state: &mut State<R>, dt: f64) -> Result<(), StepError> {
+        self.step_inner(model, state, dt)
+    }
+
+    fn notify_model_changed(&mut self, _model: &Model<R>) {
+        // Buffers are sized lazily from the model's counts on the next step.
+        self.sized_for = None;
+    }
+
+    fn timers(&self) -> &StageTimers {
+        &self.timers
+    }
+
+    fn reset_timers(&mut self) {
+        self.timers.reset();
+    }
+}
+
+/// `Σ` spring buffer entries of particle `i` with the force sign convention (+ on end 0, - on end 1).
+#[inline(always)]
+fn spring_gather<R: Real>(m: &Model<R>, buf: &[R::V], i: usize) -> R::V {
+    let mut f = R::V::ZERO;
+    for &e in m.particle_springs.row(i) {
+        let v = buf[(e >> 1) as usize];
+        if e & 1 == 0 {
+            f += v;
+        } else {
+            f -= v;
+        }
+    }
+    f
+}
+
+/// `out_s = B_s (p_j - p_i)` with `B_s = c[o] I + (c[o+1] - c[o]) u uᵀ` (o = 0: stiffness only, 2: system).
+fn spring_apply<R: Real>(
+    m: &Model<R>,
+    u: &[R::V],
+    coef: &[[R; 4]],
+    o: usize,
+    p: &[R::V],
+    out: &mut [R::V],
+) {
+    par::chunks(out, |start, ys| {
+        for k in 0..ys.len() {
+            let s = start + k;
+            let [i, j] = m.spring_indices[s];
+            let d = p[j as usize] - p[i as usize];
+            let (iso, axial) = (coef[s][o], coef[s][o + 1]);
+            ys[k] = d * iso + u[s] * ((axial - iso) * u[s].dot(d));
+        }
+    });
+}
+
+/// `out_b = Σ_{i in body b} g_i · p_i`, deterministic.
+fn body_dots<R: Real>(m: &Model<R>, g: &[R::V], p: &[R::V], partials: &mut Vec<R>, out: &mut [R]) {
+    for (b, o) in out.iter_mut().enumerate() {
+        if m.body_gas_amount[b] > R::ZERO {
+            *o = par::sum(m.particle_count(), partials, |i| {
+                if m.particle_body[i] as usize == b {
+                    g[i].dot(p[i])
+                } else {
+                    R::ZERO
+                }
+            });
+        } else {
+            *o = R::ZERO;
+        }
+    }
+}
+
+fn precondition<R: Real>(r: &[R::V], inv_diag: &[R::V], z: &mut [R::V]) {
+    par::chunks(z, |start, zs| {
+        for k in 0..zs.len() {
+            zs[k] = r[start + k].mul_elem(inv_diag[start + k]);
+        }
+    });
+}

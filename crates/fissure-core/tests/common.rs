@@ -1,0 +1,24 @@
+//! Shared helpers of the core's integration tests.
+#![allow(dead_code)]
+
+use fissure_core::glam::DVec3;
+
+/// A small deterministic PRNG (SplitMix64) so tests need no extra dependency and never vary.
+pub struct Rng(pub u64);
+
+impl Rng {
+    pub fn next_u64(&mut self) -> u64 {
+        self.0 = self.0.wrapping_add(0x9E3779B97F4A7C15);
+        let mut z = self.0;
+        z = (z ^ (z >> 30)).wrapping_mul(0xBF58476D1CE4E5B9);
+        z = (z ^ (z >> 27)).wrapping_mul(0x94D049BB133111EB);
+        z ^ (z >> 31)
+    }
+    /// Uniform in [-1, 1).
+    pub fn sym(&mut self) -> f64 {
+        (self.next_u64() >> 11) as f64 / (1u64 << 53) as f64 * 2.0 - 1.0
+    }
+    pub fn vec(&mut self) -> DVec3 {
+        DVec3::new(self.sym(), self.sym(), self.sym())
+    }
+}

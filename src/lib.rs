@@ -1,0 +1,1 @@
+pub use fissure_core::*;
