@@ -188,7 +188,9 @@ impl Collider {
             return None;
         }
         let local = pose.inverse_transform_point(x);
-        let proj = self.shape.project_local_point(local, true);
+        // `solid = false`: interior points project onto the boundary (with `solid = true` parry projects them
+        // onto themselves); `is_inside` still says which side they are on.
+        let proj = self.shape.project_local_point(local, false);
         let delta = proj.point - local;
         let dist = delta.length();
         let n_local = if proj.is_inside {
@@ -230,7 +232,7 @@ impl Collider {
     /// Outward normal of the surface feature nearest to the local point `local`.
     fn surface_normal(&self, local: Vec3) -> Vec3 {
         if let Some(tm) = self.shape.as_trimesh() {
-            let (_, (tri, _)) = tm.project_local_point_and_get_location(local, true);
+            let (_, (tri, _)) = tm.project_local_point_and_get_location(local, false);
             return tm.triangle(tri).normal().unwrap_or(Vec3::Y);
         }
         let (p, feat) = self.shape.project_local_point_and_get_feature(local);
