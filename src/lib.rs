@@ -1,1 +1,69 @@
+//! # fissure
+//!
+//! Soft bodies that stretch, inflate, collide and tear: a mass-spring system built from a triangle surface mesh
+//! (edges are springs, vertices are mass points), the closed pressure model (an ideal gas, `P = nRT / V`, pushing
+//! each triangle along its normal), wind, colliders, and four integrators — after Zeng & Wu 2010, "Soft Body
+//! Simulation with Multiple Local Fracturing Effects".
+//!
+//! This crate is the facade: it re-exports [`fissure_core`] and adds [`World`], which bundles a model, its state
+//! and a solver for the common case, and [`scenes`], the scenes of the paper built in code.
+//!
+//! ```
+//! use fissure::glam::DVec3;
+//! use fissure::*;
+//!
+//! let mut b = ModelBuilder::new();
+//! let ball = Mesh::icosphere(0.2, 2).translated(DVec3::new(0.0, 1.0, 0.0));
+//! b.add_soft_body(&ball, &SoftBodyOptions { gas: Gas::Pressure(3000.0), ..Default::default() })?;
+//! b.add_collider(Collider::ground(0.0));
+//! let mut world = World::new(b.finalize()?, SolverConfig::default());
+//! world.advance(0.5, 1e-4)?; // half a second in steps of 0.1 ms
+//! assert!(world.model.center_of_mass(&world.state).y < 1.0);
+//! # Ok::<(), Box<dyn std::error::Error>>(())
+//! ```
+#![warn(missing_docs)]
+
 pub use fissure_core::*;
+
+pub mod scenes;
+
+/// A model, its state and a CPU solver, stepped together.
+pub struct World<R: Real = f32> {
+    /// The model (read-only during a step; parameters may be changed between steps).
+    pub model: Model<R>,
+    /// Positions, velocities and time.
+    pub state: State<R>,
+    /// The solver.
+    pub solver: CpuSolver<R>,
+}
+
+impl<R: Real> World<R> {
+    /// A world at the model's initial state.
+    pub fn new(model: Model<R>, config: SolverConfig) -> Self {
+        let state = model.state();
+        World { model, state, solver: CpuSolver::new(config) }
+    }
+
+    /// One step of `dt` [s].
+    pub fn step(&mut self, dt: f64) -> Result<(), StepError> {
+        self.solver.step(&self.model, &mut self.state, dt)
+    }
+
+    /// Advances by `duration` [s] in steps of at most `dt` [s] (the last one shortened to land exactly).
+    pub fn advance(&mut self, duration: f64, dt: f64) -> Result<(), StepError> {
+        if !(dt.is_finite() && dt > 0.0) {
+            return Err(StepError::BadTimeStep(dt));
+        }
+        let end = self.state.time + duration;
+        while self.state.time < end - 1e-12 {
+            let h = dt.min(end - self.state.time);
+            self.step(h)?;
+        }
+        Ok(())
+    }
+
+    /// Per-stage timers of the solver.
+    pub fn timers(&self) -> &StageTimers {
+        self.solver.timers()
+    }
+}

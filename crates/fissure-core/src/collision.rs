@@ -76,10 +76,7 @@ impl Collider {
 
     /// The half-space behind the plane through `point` with outward `normal` (a wall).
     pub fn plane(point: Vec3, normal: Vec3) -> Self {
-        Self::new(
-            SharedShape::halfspace(normal.normalize()),
-            Pose::from_translation(point),
-        )
+        Self::new(SharedShape::halfspace(normal.normalize()), Pose::from_translation(point))
     }
 
     /// A solid ball.
@@ -89,10 +86,7 @@ impl Collider {
 
     /// A solid axis-aligned box (rotate it with [`Collider::with_rotation`]).
     pub fn cuboid(center: Vec3, half_extents: Vec3) -> Self {
-        Self::new(
-            SharedShape::cuboid(half_extents.x, half_extents.y, half_extents.z),
-            Pose::from_translation(center),
-        )
+        Self::new(SharedShape::cuboid(half_extents.x, half_extents.y, half_extents.z), Pose::from_translation(center))
     }
 
     /// A solid capsule between `a` and `b` with `radius`.
@@ -104,26 +98,14 @@ impl Collider {
     pub fn trimesh(mesh: &Mesh) -> Result<Self, MeshError> {
         if !mesh.is_closed() {
             let topo = mesh.topology();
-            let e = topo
-                .boundary_edges()
-                .next()
-                .map(|e| topo.edges[e])
-                .unwrap_or([0, 0]);
-            return Err(MeshError::Open {
-                boundary_edges: topo.boundary_edges().count(),
-                a: e[0],
-                b: e[1],
-            });
+            let e = topo.boundary_edges().next().map(|e| topo.edges[e]).unwrap_or([0, 0]);
+            return Err(MeshError::Open { boundary_edges: topo.boundary_edges().count(), a: e[0], b: e[1] });
         }
         let mut m = mesh.clone();
         m.orient_outward();
         let verts = m.positions().iter().map(|p| p.as_vec3()).collect();
-        let shape =
-            SharedShape::trimesh_with_flags(verts, m.triangles().to_vec(), TriMeshFlags::ORIENTED)
-                .map_err(|e| MeshError::Io {
-                    path: "<trimesh collider>".into(),
-                    message: format!("{e:?}"),
-                })?;
+        let shape = SharedShape::trimesh_with_flags(verts, m.triangles().to_vec(), TriMeshFlags::ORIENTED)
+            .map_err(|e| MeshError::Io { path: "<trimesh collider>".into(), message: format!("{e:?}") })?;
         Ok(Self::new(shape, Pose::IDENTITY))
     }
 
@@ -176,57 +158,30 @@ impl Collider {
 
     /// A bounding box at `pose`, grown by the margin.
     pub fn aabb(&self, pose: &Pose) -> Aabb {
-        self.shape
-            .compute_aabb(pose)
-            .loosened(self.margin.max(0.0) + 1e-6)
+        self.shape.compute_aabb(pose).loosened(self.margin.max(0.0) + 1e-6)
     }
 
-    /// Resolves one particle against this collider. Returns the corrected position and velocity if it was in
-    /// contact, `None` otherwise.
-    pub fn resolve(&self, pose: &Pose, aabb: &Aabb, x: Vec3, v: Vec3) -> Option<(Vec3, Vec3)> {
-        if !aabb.contains_local_point(x) {
-            return None;
-        }
-        let local = pose.inverse_transform_point(x);
-        // `solid = false`: interior points project onto the boundary (with `solid = true` parry projects them
-        // onto themselves); `is_inside` still says which side they are on.
-        let proj = self.shape.project_local_point(local, false);
-        let delta = proj.point - local;
-        let dist = delta.length();
-        let n_local = if proj.is_inside {
-            if dist > 1e-6 {
-                delta / dist
-            } else {
-                // On (or within rounding of) the surface: the feature's normal is robust where `delta` is noise.
-                self.surface_normal(local)
-            }
-        } else if dist < self.margin && dist > 0.0 {
-            -delta / dist
+    /// Everything a step needs to resolve particles against this collider at time `t`, computed once per step.
+    pub fn prepare(&self, t: f64) -> PreparedCollider<'_> {
+        let pose = self.pose_at(t);
+        let shape = if let Some(h) = self.shape.as_halfspace() {
+            Analytic::HalfSpace(h.normal)
+        } else if let Some(b) = self.shape.as_ball() {
+            Analytic::Ball(b.radius)
+        } else if let Some(c) = self.shape.as_cuboid() {
+            Analytic::Cuboid(c.half_extents)
+        } else if let Some(c) = self.shape.as_capsule() {
+            Analytic::Capsule(c.segment.a, c.segment.b, c.radius)
         } else {
-            return None;
+            Analytic::General
         };
-        let target = proj.point + n_local * self.margin;
-        let n = pose.rotation * n_local;
-        let x_new = pose.transform_point(target);
-        let v_col = self.velocity_at(pose, x_new);
-        let v_rel = v - v_col;
-        let vn = v_rel.dot(n);
-        if vn >= 0.0 {
-            return Some((x_new, v));
-        }
-        let vn_new = if -vn > self.restitution_threshold {
-            -self.restitution * vn
-        } else {
-            0.0
-        };
-        let vt = v_rel - n * vn;
-        let vt_len = vt.length();
-        let scale = if vt_len > 0.0 {
-            (1.0 - self.friction * (vn_new - vn) / vt_len).max(0.0)
-        } else {
-            0.0
-        };
-        Some((x_new, v_col + vt * scale + n * vn_new))
+        PreparedCollider { collider: self, aabb: self.aabb(&pose), pose, shape }
+    }
+
+    /// Resolves one particle at `x` with velocity `v` against this collider at time `t`: the corrected position
+    /// and velocity if it was in contact, `None` otherwise. (Steps use [`Collider::prepare`] once instead.)
+    pub fn resolve(&self, t: f64, x: Vec3, v: Vec3) -> Option<(Vec3, Vec3)> {
+        self.prepare(t).resolve(x, v)
     }
 
     /// Outward normal of the surface feature nearest to the local point `local`.
@@ -239,8 +194,118 @@ impl Collider {
         if feat == FeatureId::Unknown {
             return Vec3::Y;
         }
-        self.shape
-            .feature_normal_at_point(0, feat, p.point)
-            .unwrap_or(Vec3::Y)
+        self.shape.feature_normal_at_point(0, feat, p.point).unwrap_or(Vec3::Y)
+    }
+}
+
+/// The shapes with closed-form projections; everything else goes through parry3d's point query.
+#[derive(Clone, Copy, Debug)]
+enum Analytic {
+    HalfSpace(Vec3),
+    Ball(f32),
+    Cuboid(Vec3),
+    Capsule(Vec3, Vec3, f32),
+    General,
+}
+
+/// A collider with its pose, bounding box and shape kind evaluated for one step.
+#[derive(Clone, Debug)]
+pub struct PreparedCollider<'a> {
+    collider: &'a Collider,
+    pose: Pose,
+    aabb: Aabb,
+    shape: Analytic,
+}
+
+impl PreparedCollider<'_> {
+    /// Closest boundary point, whether `p` (local) is inside, and the outward normal there.
+    #[inline]
+    fn closest(&self, p: Vec3) -> (Vec3, bool, Vec3) {
+        match self.shape {
+            Analytic::HalfSpace(n) => {
+                let s = n.dot(p);
+                (p - n * s, s < 0.0, n)
+            }
+            Analytic::Ball(r) => {
+                let l = p.length();
+                let n = if l > 0.0 { p / l } else { Vec3::Y };
+                (n * r, l < r, n)
+            }
+            Analytic::Cuboid(h) => {
+                let a = p.abs();
+                if a.x <= h.x && a.y <= h.y && a.z <= h.z {
+                    // Inside: leave through the nearest face.
+                    let gap = h - a;
+                    let axis = if gap.x <= gap.y && gap.x <= gap.z {
+                        0
+                    } else if gap.y <= gap.z {
+                        1
+                    } else {
+                        2
+                    };
+                    let mut n = Vec3::ZERO;
+                    n[axis] = if p[axis] >= 0.0 { 1.0 } else { -1.0 };
+                    let mut q = p;
+                    q[axis] = n[axis] * h[axis];
+                    (q, true, n)
+                } else {
+                    let q = p.clamp(-h, h);
+                    let d = p - q;
+                    (q, false, d / d.length())
+                }
+            }
+            Analytic::Capsule(a, b, r) => {
+                let ab = b - a;
+                let len2 = ab.length_squared();
+                let t = if len2 > 0.0 { ((p - a).dot(ab) / len2).clamp(0.0, 1.0) } else { 0.0 };
+                let c = a + ab * t;
+                let d = p - c;
+                let l = d.length();
+                let n = if l > 0.0 { d / l } else { ab.any_orthonormal_vector() };
+                (c + n * r, l < r, n)
+            }
+            Analytic::General => {
+                let c = self.collider;
+                // `solid = false`: interior points project onto the boundary (with `solid = true` parry projects
+                // them onto themselves); `is_inside` still says which side they are on.
+                let proj = c.shape.project_local_point(p, false);
+                let delta = proj.point - p;
+                let dist = delta.length();
+                let n = if dist > 1e-6 {
+                    if proj.is_inside { delta / dist } else { -delta / dist }
+                } else {
+                    // On (or within rounding of) the surface: the feature's normal is robust where `delta` is noise.
+                    c.surface_normal(p)
+                };
+                (proj.point, proj.is_inside, n)
+            }
+        }
+    }
+
+    /// See [`Collider::resolve`].
+    #[inline]
+    pub fn resolve(&self, x: Vec3, v: Vec3) -> Option<(Vec3, Vec3)> {
+        if !self.aabb.contains_local_point(x) {
+            return None;
+        }
+        let c = self.collider;
+        let local = self.pose.inverse_transform_point(x);
+        let (proj, inside, n_local) = self.closest(local);
+        if !inside && (local - proj).length_squared() >= c.margin * c.margin {
+            return None;
+        }
+        let n = self.pose.rotation * n_local;
+        let x_new = self.pose.transform_point(proj + n_local * c.margin);
+        let v_col = c.velocity_at(&self.pose, x_new);
+        let v_rel = v - v_col;
+        let vn = v_rel.dot(n);
+        if vn >= 0.0 {
+            return Some((x_new, v));
+        }
+        let vn_new = if -vn > c.restitution_threshold { -c.restitution * vn } else { 0.0 };
+        let vt = v_rel - n * vn;
+        let vt_len = vt.length();
+        let scale = if vt_len > 0.0 { (1.0 - c.friction * (vn_new - vn) / vt_len).max(0.0) } else { 0.0 };
+        Some((x_new, v_col + vt * scale + n * vn_new))
     }
 }

@@ -22,9 +22,7 @@ pub enum MeshError {
         value: [f64; 3],
     },
     /// A triangle names a vertex that does not exist.
-    #[error(
-        "triangle {triangle} refers to vertex {index}, but the mesh has only {vertex_count} vertices"
-    )]
+    #[error("triangle {triangle} refers to vertex {index}, but the mesh has only {vertex_count} vertices")]
     IndexOutOfRange {
         /// Triangle index.
         triangle: usize,
@@ -84,9 +82,7 @@ pub enum MeshError {
         b: u32,
     },
     /// A closed mesh whose normals point inwards, and reorientation was not allowed.
-    #[error(
-        "closed mesh faces inwards (signed volume {volume:.6e} m^3 < 0); enable reorientation or flip its winding"
-    )]
+    #[error("closed mesh faces inwards (signed volume {volume:.6e} m^3 < 0); enable reorientation or flip its winding")]
     InwardFacing {
         /// Signed volume.
         volume: f64,
@@ -161,9 +157,7 @@ pub enum StepError {
         model: usize,
     },
     /// The implicit solver's conjugate gradients did not converge.
-    #[error(
-        "conjugate gradients did not converge in {iterations} iterations (relative residual {residual:e})"
-    )]
+    #[error("conjugate gradients did not converge in {iterations} iterations (relative residual {residual:e})")]
     NoConvergence {
         /// Iterations done.
         iterations: usize,

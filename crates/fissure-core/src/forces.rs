@@ -39,8 +39,7 @@ impl<R: Real> ForceScratch<R> {
         self.tri_f.resize(nt, R::V::ZERO);
         self.body_volume.resize(m.body_count(), R::ZERO);
         self.body_pressure.resize(m.body_count(), R::ZERO);
-        self.vol_partials
-            .resize(nt.div_ceil(par::CHUNK).max(1) * m.body_count(), R::ZERO);
+        self.vol_partials.resize(nt.div_ceil(par::CHUNK).max(1) * m.body_count(), R::ZERO);
     }
 
     /// Spring forces into `spring_f`.
@@ -75,8 +74,10 @@ impl<R: Real> ForceScratch<R> {
                 }
             }
         };
-        if m.tri_count() <= par::CHUNK {
-            cross_chunk(0, &mut self.tri_cross, vp);
+        if m.tri_count() < par::PAR_MIN {
+            for (c, (cross, part)) in self.tri_cross.chunks_mut(par::CHUNK).zip(vp.chunks_mut(nb)).enumerate() {
+                cross_chunk(c * par::CHUNK, cross, part);
+            }
         } else {
             use rayon::prelude::*;
             self.tri_cross
@@ -145,24 +146,14 @@ pub(crate) fn aero_force<R: Real>(c: R::V, v: R::V, cd: R, cl: R, rho_half: R) -
     drag + lift
 }
 
-fn spring_pass<R: Real, const PROJECTED: bool>(
-    m: &Model<R>,
-    q: &[R::V],
-    qd: &[R::V],
-    out: &mut [R::V],
-) {
+fn spring_pass<R: Real, const PROJECTED: bool>(m: &Model<R>, q: &[R::V], qd: &[R::V], out: &mut [R::V]) {
     let idx = &m.spring_indices[..out.len()];
     let rest = &m.spring_rest_length[..out.len()];
     let ks = &m.spring_stiffness[..out.len()];
     let kd = &m.spring_damping[..out.len()];
     par::chunks(out, |start, chunk| {
         let end = start + chunk.len();
-        let (idx, rest, ks, kd) = (
-            &idx[start..end],
-            &rest[start..end],
-            &ks[start..end],
-            &kd[start..end],
-        );
+        let (idx, rest, ks, kd) = (&idx[start..end], &rest[start..end], &ks[start..end], &kd[start..end]);
         for (k, f) in chunk.iter_mut().enumerate() {
             let [i, j] = idx[k];
             let (i, j) = (i as usize, j as usize);
@@ -187,12 +178,7 @@ fn spring_pass<R: Real, const PROJECTED: bool>(
 
 /// Net force on particle `i` [N]: gravity, then its springs and triangles in CSR order.
 #[inline(always)]
-pub(crate) fn particle_force<R: Real>(
-    m: &Model<R>,
-    s: &ForceScratch<R>,
-    surface: bool,
-    i: usize,
-) -> R::V {
+pub(crate) fn particle_force<R: Real>(m: &Model<R>, s: &ForceScratch<R>, surface: bool, i: usize) -> R::V {
     let mut f = m.gravity * m.particle_mass[i];
     for &e in m.particle_springs.row(i) {
         let v = s.spring_f[(e >> 1) as usize];

@@ -25,21 +25,12 @@ impl Mesh {
     /// Builds and validates a mesh. Errors name the offending vertex, triangle or edge.
     pub fn new(positions: Vec<DVec3>, triangles: Vec<[u32; 3]>) -> Result<Self, MeshError> {
         Self::validate(&positions, &triangles)?;
-        Ok(Mesh {
-            positions,
-            triangles,
-        })
+        Ok(Mesh { positions, triangles })
     }
 
     /// Builds from flat arrays: `positions` of length `3 V`, `triangles` of length `3 F` (any integer type).
-    pub fn from_flat<I: Copy + TryInto<u64>>(
-        positions: &[f64],
-        triangles: &[I],
-    ) -> Result<Self, MeshError> {
-        let p = positions
-            .chunks_exact(3)
-            .map(|c| DVec3::new(c[0], c[1], c[2]))
-            .collect::<Vec<_>>();
+    pub fn from_flat<I: Copy + TryInto<u64>>(positions: &[f64], triangles: &[I]) -> Result<Self, MeshError> {
+        let p = positions.chunks_exact(3).map(|c| DVec3::new(c[0], c[1], c[2])).collect::<Vec<_>>();
         let n = p.len();
         let mut t = Vec::with_capacity(triangles.len() / 3);
         for (f, c) in triangles.chunks_exact(3).enumerate() {
@@ -47,11 +38,7 @@ impl Mesh {
             for k in 0..3 {
                 let idx: u64 = c[k].try_into().unwrap_or(u64::MAX);
                 if idx >= n as u64 {
-                    return Err(MeshError::IndexOutOfRange {
-                        triangle: f,
-                        index: idx,
-                        vertex_count: n,
-                    });
+                    return Err(MeshError::IndexOutOfRange { triangle: f, index: idx, vertex_count: n });
                 }
                 tri[k] = idx as u32;
             }
@@ -62,38 +49,21 @@ impl Mesh {
 
     fn validate(positions: &[DVec3], triangles: &[[u32; 3]]) -> Result<(), MeshError> {
         if positions.is_empty() || triangles.is_empty() {
-            return Err(MeshError::Empty {
-                vertices: positions.len(),
-                triangles: triangles.len(),
-            });
+            return Err(MeshError::Empty { vertices: positions.len(), triangles: triangles.len() });
         }
         if let Some((i, p)) = positions.iter().enumerate().find(|(_, p)| !p.is_finite()) {
-            return Err(MeshError::NonFinite {
-                vertex: i,
-                value: p.to_array(),
-            });
+            return Err(MeshError::NonFinite { vertex: i, value: p.to_array() });
         }
         let n = positions.len();
         for (f, t) in triangles.iter().enumerate() {
             if let Some(&bad) = t.iter().find(|&&i| i as usize >= n) {
-                return Err(MeshError::IndexOutOfRange {
-                    triangle: f,
-                    index: bad as u64,
-                    vertex_count: n,
-                });
+                return Err(MeshError::IndexOutOfRange { triangle: f, index: bad as u64, vertex_count: n });
             }
             if t[0] == t[1] || t[1] == t[2] || t[0] == t[2] {
-                return Err(MeshError::Degenerate {
-                    triangle: f,
-                    vertices: *t,
-                    reason: "a vertex is repeated",
-                });
+                return Err(MeshError::Degenerate { triangle: f, vertices: *t, reason: "a vertex is repeated" });
             }
             let [a, b, c] = t.map(|i| positions[i as usize]);
-            let longest = (b - a)
-                .length_squared()
-                .max((c - b).length_squared())
-                .max((a - c).length_squared());
+            let longest = (b - a).length_squared().max((c - b).length_squared()).max((a - c).length_squared());
             if (b - a).cross(c - a).length() <= AREA_EPS * longest {
                 return Err(MeshError::Degenerate {
                     triangle: f,
@@ -128,8 +98,7 @@ impl Mesh {
 
     /// The derived topology (valid meshes always have one).
     pub fn topology(&self) -> Topology {
-        Topology::build(self.positions.len(), &self.triangles)
-            .expect("a Mesh is validated on construction")
+        Topology::build(self.positions.len(), &self.triangles).expect("a Mesh is validated on construction")
     }
 
     /// True when every edge has two faces.
@@ -153,10 +122,7 @@ impl Mesh {
 
     /// Total surface area [m^2].
     pub fn area(&self) -> f64 {
-        self.triangles
-            .iter()
-            .map(|t| tri_area(&self.positions, t))
-            .sum()
+        self.triangles.iter().map(|t| tri_area(&self.positions, t)).sum()
     }
 
     /// Mean of the vertex positions [m].
@@ -170,8 +136,7 @@ impl Mesh {
         let mut hi = 0.0f64;
         for t in &self.triangles {
             for k in 0..3 {
-                let l = (self.positions[t[k] as usize] - self.positions[t[(k + 1) % 3] as usize])
-                    .length();
+                let l = (self.positions[t[k] as usize] - self.positions[t[(k + 1) % 3] as usize]).length();
                 lo = lo.min(l);
                 hi = hi.max(l);
             }
@@ -198,18 +163,12 @@ impl Mesh {
 
     /// A copy with every position mapped by `f` (no validation beyond finiteness of the result).
     pub fn map_positions(&self, f: impl Fn(DVec3) -> DVec3) -> Result<Mesh, MeshError> {
-        Mesh::new(
-            self.positions.iter().map(|&p| f(p)).collect(),
-            self.triangles.clone(),
-        )
+        Mesh::new(self.positions.iter().map(|&p| f(p)).collect(), self.triangles.clone())
     }
 
     /// A copy moved by `offset` [m].
     pub fn translated(&self, offset: DVec3) -> Mesh {
-        Mesh {
-            positions: self.positions.iter().map(|&p| p + offset).collect(),
-            triangles: self.triangles.clone(),
-        }
+        Mesh { positions: self.positions.iter().map(|&p| p + offset).collect(), triangles: self.triangles.clone() }
     }
 
     /// Icosphere of `radius` [m]: an icosahedron subdivided `subdivisions` times, vertices projected onto the
@@ -270,10 +229,7 @@ impl Mesh {
             }
             tris = next;
         }
-        Mesh {
-            positions: pos.into_iter().map(|p| p * radius).collect(),
-            triangles: tris,
-        }
+        Mesh { positions: pos.into_iter().map(|p| p * radius).collect(), triangles: tris }
     }
 
     /// A rectangular cloth grid of `nx × ny` vertices with `spacing` [m], in the XY plane (z = 0), x to the right,
@@ -303,10 +259,7 @@ impl Mesh {
                 }
             }
         }
-        Mesh {
-            positions: pos,
-            triangles: tris,
-        }
+        Mesh { positions: pos, triangles: tris }
     }
 
     /// A closed box centred at the origin with `half_extents` [m], each face split into `n × n` quads.
@@ -318,22 +271,15 @@ impl Mesh {
         // Integer lattice coordinates in [-n, n] make shared corners and edges weld exactly.
         let mut vid = |l: [i64; 3], pos: &mut Vec<DVec3>| -> u32 {
             *index.entry(l).or_insert_with(|| {
-                pos.push(
-                    DVec3::new(l[0] as f64, l[1] as f64, l[2] as f64) / n as f64 * half_extents,
-                );
+                pos.push(DVec3::new(l[0] as f64, l[1] as f64, l[2] as f64) / n as f64 * half_extents);
                 pos.len() as u32 - 1
             })
         };
         let n = n as i64;
         // For each face: the fixed axis and sign, and two in-plane axes (u, v) with u × v = outward normal.
-        for (axis, sign, u, v) in [
-            (0, 1, 1, 2),
-            (0, -1, 2, 1),
-            (1, 1, 2, 0),
-            (1, -1, 0, 2),
-            (2, 1, 0, 1),
-            (2, -1, 1, 0),
-        ] {
+        for (axis, sign, u, v) in
+            [(0, 1, 1, 2), (0, -1, 2, 1), (1, 1, 2, 0), (1, -1, 0, 2), (2, 1, 0, 1), (2, -1, 1, 0)]
+        {
             for a in 0..2 * n {
                 for b in 0..2 * n {
                     let mut q = [[0i64; 3]; 4];
@@ -348,37 +294,21 @@ impl Mesh {
                 }
             }
         }
-        Mesh {
-            positions: pos,
-            triangles: tris,
-        }
+        Mesh { positions: pos, triangles: tris }
     }
 
     /// Merges vertices closer than `tolerance` [m] (a hash grid; each vertex maps to the first, lowest-index
     /// vertex within reach) and drops vertices no triangle uses. OBJ exports split vertices at UV and normal
     /// seams, which leaves a "closed" sphere full of cracks; welding restores it.
-    pub fn weld(
-        positions: &[DVec3],
-        triangles: &[[u32; 3]],
-        tolerance: f64,
-    ) -> Result<Mesh, MeshError> {
+    pub fn weld(positions: &[DVec3], triangles: &[[u32; 3]], tolerance: f64) -> Result<Mesh, MeshError> {
         let cell = tolerance.max(f64::MIN_POSITIVE) * 2.0;
-        let key = |p: DVec3| {
-            [
-                (p.x / cell).floor() as i64,
-                (p.y / cell).floor() as i64,
-                (p.z / cell).floor() as i64,
-            ]
-        };
+        let key = |p: DVec3| [(p.x / cell).floor() as i64, (p.y / cell).floor() as i64, (p.z / cell).floor() as i64];
         let mut grid: HashMap<[i64; 3], Vec<u32>> = HashMap::new();
         let mut remap = vec![0u32; positions.len()];
         let mut out: Vec<DVec3> = Vec::new();
         for (i, &p) in positions.iter().enumerate() {
             if !p.is_finite() {
-                return Err(MeshError::NonFinite {
-                    vertex: i,
-                    value: p.to_array(),
-                });
+                return Err(MeshError::NonFinite { vertex: i, value: p.to_array() });
             }
             let k = key(p);
             let mut found = None;
@@ -386,10 +316,7 @@ impl Mesh {
                 for dy in -1..=1 {
                     for dz in -1..=1 {
                         if let Some(list) = grid.get(&[k[0] + dx, k[1] + dy, k[2] + dz]) {
-                            if let Some(&j) = list
-                                .iter()
-                                .find(|&&j| (out[j as usize] - p).length() <= tolerance)
-                            {
+                            if let Some(&j) = list.iter().find(|&&j| (out[j as usize] - p).length() <= tolerance) {
                                 found = Some(j);
                                 break 'search;
                             }
@@ -432,76 +359,42 @@ impl Mesh {
                 compact.push(out[i]);
             }
         }
-        let tris = tris
-            .into_iter()
-            .map(|t| t.map(|v| used[v as usize]))
-            .collect();
+        let tris = tris.into_iter().map(|t| t.map(|v| used[v as usize])).collect();
         Mesh::new(compact, tris)
     }
 
     /// Loads a Wavefront OBJ (all objects merged, polygons triangulated), then welds vertices within
     /// `weld_tolerance` [m] (pass `None` for 1e-6 of the bounding-box diagonal).
-    pub fn load_obj(
-        path: impl AsRef<Path>,
-        weld_tolerance: Option<f64>,
-    ) -> Result<Mesh, MeshError> {
+    pub fn load_obj(path: impl AsRef<Path>, weld_tolerance: Option<f64>) -> Result<Mesh, MeshError> {
         let path = path.as_ref();
-        let text = std::fs::read_to_string(path).map_err(|e| MeshError::Io {
-            path: path.display().to_string(),
-            message: e.to_string(),
-        })?;
+        let text = std::fs::read_to_string(path)
+            .map_err(|e| MeshError::Io { path: path.display().to_string(), message: e.to_string() })?;
         Self::parse_obj(&text, weld_tolerance).map_err(|e| match e {
-            MeshError::Io { message, .. } => MeshError::Io {
-                path: path.display().to_string(),
-                message,
-            },
+            MeshError::Io { message, .. } => MeshError::Io { path: path.display().to_string(), message },
             other => other,
         })
     }
 
     /// Parses OBJ text; see [`Mesh::load_obj`].
     pub fn parse_obj(text: &str, weld_tolerance: Option<f64>) -> Result<Mesh, MeshError> {
-        let opts = tobj::LoadOptions {
-            single_index: false,
-            triangulate: true,
-            ignore_points: true,
-            ignore_lines: true,
-        };
-        let (models, _) = tobj::load_obj_buf(&mut text.as_bytes(), &opts, |_| {
-            Err(tobj::LoadError::OpenFileFailed)
-        })
-        .map_err(|e| MeshError::Io {
-            path: "<obj>".into(),
-            message: format!("OBJ parse error: {e}"),
-        })?;
+        let opts =
+            tobj::LoadOptions { single_index: false, triangulate: true, ignore_points: true, ignore_lines: true };
+        let (models, _) = tobj::load_obj_buf(&mut text.as_bytes(), &opts, |_| Err(tobj::LoadError::OpenFileFailed))
+            .map_err(|e| MeshError::Io { path: "<obj>".into(), message: format!("OBJ parse error: {e}") })?;
         let mut positions = Vec::new();
         let mut triangles = Vec::new();
         for m in &models {
             let base = positions.len() as u32;
-            positions.extend(
-                m.mesh
-                    .positions
-                    .chunks_exact(3)
-                    .map(|c| DVec3::new(c[0], c[1], c[2])),
-            );
-            triangles.extend(
-                m.mesh
-                    .indices
-                    .chunks_exact(3)
-                    .map(|c| [c[0] + base, c[1] + base, c[2] + base]),
-            );
+            positions.extend(m.mesh.positions.chunks_exact(3).map(|c| DVec3::new(c[0], c[1], c[2])));
+            triangles.extend(m.mesh.indices.chunks_exact(3).map(|c| [c[0] + base, c[1] + base, c[2] + base]));
         }
         if positions.is_empty() || triangles.is_empty() {
-            return Err(MeshError::Empty {
-                vertices: positions.len(),
-                triangles: triangles.len(),
-            });
+            return Err(MeshError::Empty { vertices: positions.len(), triangles: triangles.len() });
         }
         let tol = weld_tolerance.unwrap_or_else(|| {
-            let (lo, hi) = positions.iter().fold(
-                (DVec3::splat(f64::MAX), DVec3::splat(f64::MIN)),
-                |(l, h), &p| (l.min(p), h.max(p)),
-            );
+            let (lo, hi) = positions
+                .iter()
+                .fold((DVec3::splat(f64::MAX), DVec3::splat(f64::MIN)), |(l, h), &p| (l.min(p), h.max(p)));
             1e-6 * (hi - lo).length()
         });
         Self::weld(&positions, &triangles, tol)
@@ -561,8 +454,5 @@ pub fn write_ply(positions: &[DVec3], triangles: &[[u32; 3]]) -> String {
 }
 
 fn write_file(path: &Path, text: &str) -> Result<(), MeshError> {
-    std::fs::write(path, text).map_err(|e| MeshError::Io {
-        path: path.display().to_string(),
-        message: e.to_string(),
-    })
+    std::fs::write(path, text).map_err(|e| MeshError::Io { path: path.display().to_string(), message: e.to_string() })
 }

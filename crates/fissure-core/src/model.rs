@@ -218,11 +218,7 @@ fn check_pos(name: &'static str, v: f64) -> Result<(), ModelError> {
     if v.is_finite() && v > 0.0 {
         Ok(())
     } else {
-        Err(ModelError::Parameter {
-            name,
-            value: v,
-            expected: "finite and > 0",
-        })
+        Err(ModelError::Parameter { name, value: v, expected: "finite and > 0" })
     }
 }
 
@@ -230,11 +226,7 @@ fn check_nonneg(name: &'static str, v: f64) -> Result<(), ModelError> {
     if v.is_finite() && v >= 0.0 {
         Ok(())
     } else {
-        Err(ModelError::Parameter {
-            name,
-            value: v,
-            expected: "finite and >= 0",
-        })
+        Err(ModelError::Parameter { name, value: v, expected: "finite and >= 0" })
     }
 }
 
@@ -314,59 +306,30 @@ impl ModelBuilder {
 
     /// Adds a spring between particles `i` and `j` with stiffness [N/m] and damping [N·s/m]; its rest length is
     /// their current distance.
-    pub fn add_spring(
-        &mut self,
-        i: usize,
-        j: usize,
-        stiffness: f64,
-        damping: f64,
-    ) -> Result<usize, ModelError> {
+    pub fn add_spring(&mut self, i: usize, j: usize, stiffness: f64, damping: f64) -> Result<usize, ModelError> {
         let n = self.q.len();
         for idx in [i, j] {
             if idx >= n {
-                return Err(ModelError::ParticleOutOfRange {
-                    name: "spring end",
-                    index: idx,
-                    count: n,
-                });
+                return Err(ModelError::ParticleOutOfRange { name: "spring end", index: idx, count: n });
             }
         }
         check_nonneg("stiffness", stiffness)?;
         check_nonneg("damping", damping)?;
         let l = (self.q[j] - self.q[i]).length();
         check_pos("spring rest length", l)?;
-        self.springs.push((
-            [i as u32, j as u32],
-            l,
-            stiffness,
-            damping,
-            SpringKind::Edge,
-        ));
+        self.springs.push(([i as u32, j as u32], l, stiffness, damping, SpringKind::Edge));
         Ok(self.springs.len() - 1)
     }
 
     /// Adds a closed soft body (a balloon: membrane springs on the edges, gas inside). The mesh must be closed
     /// when it has gas; an inward-facing mesh is flipped if `opts.reorient`, rejected otherwise.
-    pub fn add_soft_body(
-        &mut self,
-        mesh: &Mesh,
-        opts: &SoftBodyOptions,
-    ) -> Result<BodyHandle, ModelError> {
+    pub fn add_soft_body(&mut self, mesh: &Mesh, opts: &SoftBodyOptions) -> Result<BodyHandle, ModelError> {
         let mut mesh = mesh.clone();
         let topo = mesh.topology();
         let gas = !matches!(opts.gas, Gas::None);
         if gas && !topo.is_closed() {
-            let e = topo
-                .boundary_edges()
-                .next()
-                .map(|e| topo.edges[e])
-                .unwrap_or([0, 0]);
-            return Err(MeshError::Open {
-                boundary_edges: topo.boundary_edges().count(),
-                a: e[0],
-                b: e[1],
-            }
-            .into());
+            let e = topo.boundary_edges().next().map(|e| topo.edges[e]).unwrap_or([0, 0]);
+            return Err(MeshError::Open { boundary_edges: topo.boundary_edges().count(), a: e[0], b: e[1] }.into());
         }
         if topo.is_closed() {
             let v = mesh.signed_volume();
@@ -378,11 +341,7 @@ impl ModelBuilder {
             }
         }
         check_nonneg("external_pressure", opts.external_pressure)?;
-        let v0 = if topo.is_closed() {
-            mesh.signed_volume()
-        } else {
-            0.0
-        };
+        let v0 = if topo.is_closed() { mesh.signed_volume() } else { 0.0 };
         let nrt = match opts.gas {
             Gas::None => 0.0,
             Gas::Amount(a) => {
@@ -412,11 +371,7 @@ impl ModelBuilder {
         b.external_pressure = opts.external_pressure;
         b.rest_volume = v0;
         if !opts.velocity.is_finite() {
-            return Err(ModelError::Parameter {
-                name: "velocity",
-                value: f64::NAN,
-                expected: "finite",
-            });
+            return Err(ModelError::Parameter { name: "velocity", value: f64::NAN, expected: "finite" });
         }
         for v in &mut self.qd[h.particles()] {
             *v = opts.velocity;
@@ -425,11 +380,7 @@ impl ModelBuilder {
     }
 
     /// Adds a cloth from any mesh: edge springs, bending springs across interior edges, pins.
-    pub fn add_cloth(
-        &mut self,
-        mesh: &Mesh,
-        opts: &ClothOptions,
-    ) -> Result<BodyHandle, ModelError> {
+    pub fn add_cloth(&mut self, mesh: &Mesh, opts: &ClothOptions) -> Result<BodyHandle, ModelError> {
         let topo = mesh.topology();
         self.add_surface(
             mesh,
@@ -511,21 +462,13 @@ impl ModelBuilder {
         }
         for (name, c) in [("aero.drag", aero.drag), ("aero.lift", aero.lift)] {
             if !c.is_finite() {
-                return Err(ModelError::Parameter {
-                    name,
-                    value: c,
-                    expected: "finite",
-                });
+                return Err(ModelError::Parameter { name, value: c, expected: "finite" });
             }
         }
         let p = mesh.positions();
         let n = p.len();
         if let Some(&bad) = pins.iter().find(|&&i| i >= n) {
-            return Err(ModelError::ParticleOutOfRange {
-                name: "pins",
-                index: bad,
-                count: n,
-            });
+            return Err(ModelError::ParticleOutOfRange { name: "pins", index: bad, count: n });
         }
         // Lumped masses: a third of each triangle's area to each corner.
         let mut area = vec![0.0; n];
@@ -569,10 +512,8 @@ impl ModelBuilder {
         }
         self.pinned.extend_from_slice(&pinned);
         self.particle_body.extend(std::iter::repeat_n(body, n));
-        self.tris
-            .extend(mesh.triangles().iter().map(|t| t.map(|v| v + base)));
-        self.tri_body
-            .extend(std::iter::repeat_n(body, mesh.triangle_count()));
+        self.tris.extend(mesh.triangles().iter().map(|t| t.map(|v| v + base)));
+        self.tri_body.extend(std::iter::repeat_n(body, mesh.triangle_count()));
 
         let tris = mesh.triangles();
         let resolve = |s: Stiffness, l: f64, area_sum: f64| match s {
@@ -591,47 +532,24 @@ impl ModelBuilder {
                 2.0 * z * (k * mred).sqrt()
             }
         };
-        let push = |i: usize,
-                    j: usize,
-                    s: Stiffness,
-                    area_sum: f64,
-                    kind: SpringKind,
-                    out: &mut Vec<_>| {
+        let push = |i: usize, j: usize, s: Stiffness, area_sum: f64, kind: SpringKind, out: &mut Vec<_>| {
             let l = (p[j] - p[i]).length();
             let k = resolve(s, l, area_sum);
-            out.push((
-                [i as u32 + base, j as u32 + base],
-                l,
-                k,
-                damp(k, i, j),
-                kind,
-            ));
+            out.push(([i as u32 + base, j as u32 + base], l, k, damp(k, i, j), kind));
         };
         let mut new_springs = Vec::new();
         for (e, &[a, b]) in topo.edges.iter().enumerate() {
             let faces = topo.edge_faces[e];
-            let area_sum: f64 = faces
-                .iter()
-                .filter(|&&f| f != NONE)
-                .map(|&f| tri_area(p, &tris[f as usize]))
-                .sum();
+            let area_sum: f64 = faces.iter().filter(|&&f| f != NONE).map(|&f| tri_area(p, &tris[f as usize])).sum();
             // On a grid, the mesh diagonals are shear springs.
             let diagonal = grid.is_some_and(|g| g.is_diagonal(a as usize, b as usize));
-            let s = if diagonal {
-                shear.unwrap_or(stiffness)
-            } else {
-                stiffness
-            };
+            let s = if diagonal { shear.unwrap_or(stiffness) } else { stiffness };
             push(
                 a as usize,
                 b as usize,
                 s,
                 area_sum,
-                if diagonal {
-                    SpringKind::Shear
-                } else {
-                    SpringKind::Edge
-                },
+                if diagonal { SpringKind::Shear } else { SpringKind::Edge },
                 &mut new_springs,
             );
         }
@@ -641,13 +559,8 @@ impl ModelBuilder {
                     // The other diagonal of each quad.
                     for j in 0..g.ny - 1 {
                         for i in 0..g.nx - 1 {
-                            let (p00, p10, p01, p11) =
-                                (g.v(i, j), g.v(i + 1, j), g.v(i, j + 1), g.v(i + 1, j + 1));
-                            let (a, b) = if (i + j) % 2 == 0 {
-                                (p10, p01)
-                            } else {
-                                (p00, p11)
-                            };
+                            let (p00, p10, p01, p11) = (g.v(i, j), g.v(i + 1, j), g.v(i, j + 1), g.v(i + 1, j + 1));
+                            let (a, b) = if (i + j) % 2 == 0 { (p10, p01) } else { (p00, p11) };
                             push(a, b, s, 0.0, SpringKind::Shear, &mut new_springs);
                         }
                     }
@@ -655,26 +568,12 @@ impl ModelBuilder {
                 if let Some(s) = bending {
                     for j in 0..g.ny {
                         for i in 0..g.nx - 2 {
-                            push(
-                                g.v(i, j),
-                                g.v(i + 2, j),
-                                s,
-                                0.0,
-                                SpringKind::Bend,
-                                &mut new_springs,
-                            );
+                            push(g.v(i, j), g.v(i + 2, j), s, 0.0, SpringKind::Bend, &mut new_springs);
                         }
                     }
                     for j in 0..g.ny - 2 {
                         for i in 0..g.nx {
-                            push(
-                                g.v(i, j),
-                                g.v(i, j + 2),
-                                s,
-                                0.0,
-                                SpringKind::Bend,
-                                &mut new_springs,
-                            );
+                            push(g.v(i, j), g.v(i, j + 2), s, 0.0, SpringKind::Bend, &mut new_springs);
                         }
                     }
                 }
@@ -687,15 +586,9 @@ impl ModelBuilder {
                         if f1 == NONE {
                             continue;
                         }
-                        let opp = |f: u32| {
-                            *tris[f as usize]
-                                .iter()
-                                .find(|&&v| v != a && v != b)
-                                .expect("triangle")
-                        };
+                        let opp = |f: u32| *tris[f as usize].iter().find(|&&v| v != a && v != b).expect("triangle");
                         let (c, d) = (opp(f0) as usize, opp(f1) as usize);
-                        let area_sum =
-                            tri_area(p, &tris[f0 as usize]) + tri_area(p, &tris[f1 as usize]);
+                        let area_sum = tri_area(p, &tris[f0 as usize]) + tri_area(p, &tris[f1 as usize]);
                         if (p[d] - p[c]).length() > 0.0 {
                             push(c, d, s, area_sum, SpringKind::Bend, &mut new_springs);
                         }
@@ -704,20 +597,8 @@ impl ModelBuilder {
             }
         }
         self.springs.extend(new_springs);
-        self.bodies.push(BodyDesc {
-            kind,
-            gas: 0.0,
-            external_pressure: 0.0,
-            rest_volume: 0.0,
-            aero,
-            anchor: base,
-        });
-        Ok(BodyHandle {
-            index: body as usize,
-            first_particle: base as usize,
-            particle_count: n,
-            first_triangle,
-        })
+        self.bodies.push(BodyDesc { kind, gas: 0.0, external_pressure: 0.0, rest_volume: 0.0, aero, anchor: base });
+        Ok(BodyHandle { index: body as usize, first_particle: base as usize, particle_count: n, first_triangle })
     }
 
     /// Produces the model in precision `R` (`f32` or `f64`).
@@ -726,25 +607,19 @@ impl ModelBuilder {
             return Err(ModelError::Empty);
         }
         if !self.gravity.is_finite() {
-            return Err(ModelError::Parameter {
-                name: "gravity",
-                value: f64::NAN,
-                expected: "finite",
-            });
+            return Err(ModelError::Parameter { name: "gravity", value: f64::NAN, expected: "finite" });
         }
         let n = self.q.len();
         let particle_springs = Csr::from_pairs(
             n,
-            self.springs.iter().enumerate().flat_map(|(s, (ij, ..))| {
-                [(ij[0], (s as u32) << 1), (ij[1], ((s as u32) << 1) | 1)]
-            }),
+            self.springs
+                .iter()
+                .enumerate()
+                .flat_map(|(s, (ij, ..))| [(ij[0], (s as u32) << 1), (ij[1], ((s as u32) << 1) | 1)]),
         );
         let particle_tris = Csr::from_pairs(
             n,
-            self.tris
-                .iter()
-                .enumerate()
-                .flat_map(|(t, tri)| tri.iter().map(move |&v| (v, t as u32))),
+            self.tris.iter().enumerate().flat_map(|(t, tri)| tri.iter().map(move |&v| (v, t as u32))),
         );
         let r = R::from_f64;
         let v = R::V::from_dvec3;
@@ -888,11 +763,7 @@ impl Energy {
 impl<R: Real> Model<R> {
     /// The initial state.
     pub fn state(&self) -> State<R> {
-        State {
-            particle_q: self.particle_q0.clone(),
-            particle_qd: self.particle_qd0.clone(),
-            time: 0.0,
-        }
+        State { particle_q: self.particle_q0.clone(), particle_qd: self.particle_qd0.clone(), time: 0.0 }
     }
     /// Number of particles.
     pub fn particle_count(&self) -> usize {
@@ -916,12 +787,7 @@ impl<R: Real> Model<R> {
     }
     /// True if there is wind and a body that feels it: only then is the aerodynamics pass run.
     pub fn has_wind(&self) -> bool {
-        self.wind.is_some()
-            && self
-                .body_drag
-                .iter()
-                .zip(&self.body_lift)
-                .any(|(&d, &l)| d != R::ZERO || l != R::ZERO)
+        self.wind.is_some() && self.body_drag.iter().zip(&self.body_lift).any(|(&d, &l)| d != R::ZERO || l != R::ZERO)
     }
     /// True if there are colliders: only then is the collision pass run.
     pub fn has_colliders(&self) -> bool {
@@ -951,11 +817,7 @@ impl<R: Real> Model<R> {
             .enumerate()
             .map(|(b, &v)| {
                 let g = self.body_gas_amount[b].to_f64();
-                if g > 0.0 {
-                    g / v.max(1e-3 * self.body_rest_volume[b].to_f64())
-                } else {
-                    0.0
-                }
+                if g > 0.0 { g / v.max(1e-3 * self.body_rest_volume[b].to_f64()) } else { 0.0 }
             })
             .collect()
     }
@@ -989,9 +851,7 @@ impl<R: Real> Model<R> {
             }
         }
         for (s, &[i, j]) in self.spring_indices.iter().enumerate() {
-            let l = (state.particle_q[j as usize].to_dvec3()
-                - state.particle_q[i as usize].to_dvec3())
-            .length();
+            let l = (state.particle_q[j as usize].to_dvec3() - state.particle_q[i as usize].to_dvec3()).length();
             let d = l - self.spring_rest_length[s].to_f64();
             e.spring += 0.5 * self.spring_stiffness[s].to_f64() * d * d;
         }
@@ -999,8 +859,7 @@ impl<R: Real> Model<R> {
             let gas = self.body_gas_amount[b].to_f64();
             let v0 = self.body_rest_volume[b].to_f64();
             if gas > 0.0 {
-                e.gas += -gas * (v.max(1e-3 * v0) / v0).ln()
-                    + self.body_pressure_external[b].to_f64() * (v - v0);
+                e.gas += -gas * (v.max(1e-3 * v0) / v0).ln() + self.body_pressure_external[b].to_f64() * (v - v0);
             }
         }
         e

@@ -10,48 +10,44 @@ use rayon::prelude::*;
 /// Chunk length of every parallel pass.
 pub(crate) const CHUNK: usize = 2048;
 
+/// Below this many elements a pass runs inline on the calling thread. Handing work to the pool costs a
+/// wake-up of a sleeping worker (tens of microseconds when the step's passes are short and far apart), more
+/// than a few thousand springs cost to compute.
+pub(crate) const PAR_MIN: usize = 4 * CHUNK;
+
 /// Runs `f(start, chunk)` over `data` in fixed chunks, in parallel when there is more than one chunk.
 #[inline]
 pub(crate) fn chunks<T: Send>(data: &mut [T], f: impl Fn(usize, &mut [T]) + Sync + Send) {
-    if data.len() <= CHUNK {
+    if data.len() < PAR_MIN {
         f(0, data);
     } else {
-        data.par_chunks_mut(CHUNK)
-            .enumerate()
-            .for_each(|(c, s)| f(c * CHUNK, s));
+        data.par_chunks_mut(CHUNK).enumerate().for_each(|(c, s)| f(c * CHUNK, s));
     }
 }
 
 /// Like [`chunks`] over two slices of equal length walked together.
 #[inline]
-pub(crate) fn chunks2<A: Send, B: Send>(
-    a: &mut [A],
-    b: &mut [B],
-    f: impl Fn(usize, &mut [A], &mut [B]) + Sync + Send,
-) {
+pub(crate) fn chunks2<A: Send, B: Send>(a: &mut [A], b: &mut [B], f: impl Fn(usize, &mut [A], &mut [B]) + Sync + Send) {
     debug_assert_eq!(a.len(), b.len());
-    if a.len() <= CHUNK {
+    if a.len() < PAR_MIN {
         f(0, a, b);
     } else {
-        a.par_chunks_mut(CHUNK)
-            .zip(b.par_chunks_mut(CHUNK))
-            .enumerate()
-            .for_each(|(c, (x, y))| f(c * CHUNK, x, y));
+        a.par_chunks_mut(CHUNK).zip(b.par_chunks_mut(CHUNK)).enumerate().for_each(|(c, (x, y))| f(c * CHUNK, x, y));
     }
 }
 
 /// `Σ f(i)` over `0..n`, deterministic: chunk sums in `partials` (resized, reused), then summed in order.
 #[inline]
-pub(crate) fn sum<R: Real>(
-    n: usize,
-    partials: &mut Vec<R>,
-    f: impl Fn(usize) -> R + Sync + Send,
-) -> R {
+pub(crate) fn sum<R: Real>(n: usize, partials: &mut Vec<R>, f: impl Fn(usize) -> R + Sync + Send) -> R {
     let nc = n.div_ceil(CHUNK);
-    if nc <= 1 {
-        return (0..n).map(&f).fold(R::ZERO, |a, b| a + b);
-    }
     partials.resize(nc, R::ZERO);
+    if n < PAR_MIN {
+        // Same chunked order as the parallel path, so the bits do not depend on the size threshold either.
+        for (c, p) in partials.iter_mut().enumerate() {
+            *p = (c * CHUNK..((c + 1) * CHUNK).min(n)).map(&f).fold(R::ZERO, |a, b| a + b);
+        }
+        return partials.iter().fold(R::ZERO, |a, &b| a + b);
+    }
     partials.par_iter_mut().enumerate().for_each(|(c, p)| {
         let end = ((c + 1) * CHUNK).min(n);
         *p = (c * CHUNK..end).map(&f).fold(R::ZERO, |a, b| a + b);
@@ -69,7 +65,7 @@ pub(crate) fn chunks4<A: Send, B: Send, C: Send, D: Send>(
     d: &mut [D],
     f: impl Fn(usize, &mut [A], &mut [B], &mut [C], &mut [D]) + Sync + Send,
 ) {
-    if a.len() <= CHUNK {
+    if a.len() < PAR_MIN {
         f(0, a, b, c, d);
     } else {
         a.par_chunks_mut(CHUNK)

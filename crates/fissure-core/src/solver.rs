@@ -45,12 +45,8 @@ pub enum Integrator {
 
 impl Integrator {
     /// All integrators.
-    pub const ALL: [Integrator; 4] = [
-        Integrator::SymplecticEuler,
-        Integrator::VelocityVerlet,
-        Integrator::Rk4,
-        Integrator::ImplicitEuler,
-    ];
+    pub const ALL: [Integrator; 4] =
+        [Integrator::SymplecticEuler, Integrator::VelocityVerlet, Integrator::Rk4, Integrator::ImplicitEuler];
 
     /// Global order of accuracy.
     pub fn order(self) -> u32 {
@@ -100,10 +96,7 @@ impl Default for SolverConfig {
 impl SolverConfig {
     /// Default settings with `integrator`.
     pub fn with(integrator: Integrator) -> Self {
-        SolverConfig {
-            integrator,
-            ..Default::default()
-        }
+        SolverConfig { integrator, ..Default::default() }
     }
 }
 
@@ -174,10 +167,7 @@ struct ImplicitScratch<R: Real> {
 impl<R: Real> CpuSolver<R> {
     /// A solver with `config`.
     pub fn new(config: SolverConfig) -> Self {
-        CpuSolver {
-            config,
-            ..Default::default()
-        }
+        CpuSolver { config, ..Default::default() }
     }
 
     /// A solver with default settings and `integrator`.
@@ -186,13 +176,7 @@ impl<R: Real> CpuSolver<R> {
     }
 
     fn ensure_sized(&mut self, m: &Model<R>) {
-        let key = (
-            m.particle_count(),
-            m.spring_count(),
-            m.tri_count(),
-            m.body_count(),
-            self.config.integrator,
-        );
+        let key = (m.particle_count(), m.spring_count(), m.tri_count(), m.body_count(), self.config.integrator);
         if Some(key) == self.sized_for {
             return;
         }
@@ -200,36 +184,19 @@ impl<R: Real> CpuSolver<R> {
         self.f.resize(m);
         let n = m.particle_count();
         let z = R::V::ZERO;
-        let rk = if self.config.integrator == Integrator::Rk4 {
-            n
-        } else {
-            0
-        };
-        for v in [
-            &mut self.rk.xt,
-            &mut self.rk.vt,
-            &mut self.rk.ax,
-            &mut self.rk.av,
-        ] {
+        let rk = if self.config.integrator == Integrator::Rk4 { n } else { 0 };
+        for v in [&mut self.rk.xt, &mut self.rk.vt, &mut self.rk.ax, &mut self.rk.av] {
             v.resize(rk, z);
         }
         let imp = self.config.integrator == Integrator::ImplicitEuler;
         let ni = if imp { n } else { 0 };
         let i = &mut self.imp;
-        for v in [
-            &mut i.r,
-            &mut i.z,
-            &mut i.p,
-            &mut i.ap,
-            &mut i.dv,
-            &mut i.diag,
-        ] {
+        for v in [&mut i.r, &mut i.z, &mut i.p, &mut i.ap, &mut i.dv, &mut i.diag] {
             v.resize(ni, z);
         }
         i.g.resize(if imp && m.has_pressure() { n } else { 0 }, z);
         i.u.resize(if imp { m.spring_count() } else { 0 }, z);
-        i.coef
-            .resize(if imp { m.spring_count() } else { 0 }, [R::ZERO; 4]);
+        i.coef.resize(if imp { m.spring_count() } else { 0 }, [R::ZERO; 4]);
         i.body_c.resize(m.body_count(), R::ZERO);
         i.body_dot.resize(m.body_count(), R::ZERO);
     }
@@ -255,47 +222,36 @@ impl<R: Real> CpuSolver<R> {
             return;
         }
         let t0 = Instant::now();
-        let time = state.time;
-        let poses: Vec<_> = m.colliders.iter().map(|c| c.pose_at(time)).collect();
-        let boxes: Vec<_> = m
-            .colliders
-            .iter()
-            .zip(&poses)
-            .map(|(c, p)| c.aabb(p))
-            .collect();
+        let prepared: Vec<_> = m.colliders.iter().map(|c| c.prepare(state.time)).collect();
         let inv_mass = &m.particle_inv_mass;
-        par::chunks2(
-            &mut state.particle_q,
-            &mut state.particle_qd,
-            |start, qs, vs| {
-                for k in 0..qs.len() {
-                    if inv_mass[start + k] == R::ZERO {
-                        continue;
-                    }
-                    let (mut x, mut v) = (qs[k].to_vec3(), vs[k].to_vec3());
-                    let mut touched = false;
-                    // A push out of one collider can land in another (a corner): sweep until clear, at most 3 times.
-                    for _sweep in 0..3 {
-                        let mut any = false;
-                        for (ci, c) in m.colliders.iter().enumerate() {
-                            if let Some((x2, v2)) = c.resolve(&poses[ci], &boxes[ci], x, v) {
-                                x = x2;
-                                v = v2;
-                                any = true;
-                            }
-                        }
-                        touched |= any;
-                        if !any || m.colliders.len() == 1 {
-                            break;
+        par::chunks2(&mut state.particle_q, &mut state.particle_qd, |start, qs, vs| {
+            for k in 0..qs.len() {
+                if inv_mass[start + k] == R::ZERO {
+                    continue;
+                }
+                let (mut x, mut v) = (qs[k].to_vec3(), vs[k].to_vec3());
+                let mut touched = false;
+                // A push out of one collider can land in another (a corner): sweep until clear, at most 3 times.
+                for _sweep in 0..3 {
+                    let mut any = false;
+                    for c in &prepared {
+                        if let Some((x2, v2)) = c.resolve(x, v) {
+                            x = x2;
+                            v = v2;
+                            any = true;
                         }
                     }
-                    if touched {
-                        qs[k] = R::V::from_vec3(x);
-                        vs[k] = R::V::from_vec3(v);
+                    touched |= any;
+                    if !any || m.colliders.len() == 1 {
+                        break;
                     }
                 }
-            },
-        );
+                if touched {
+                    qs[k] = R::V::from_vec3(x);
+                    vs[k] = R::V::from_vec3(v);
+                }
+            }
+        });
         self.timers.add(Stage::Collide, t0);
     }
 
@@ -377,36 +333,26 @@ impl<R: Real> CpuSolver<R> {
             // stage or (last stage) apply the weighted sum to the state.
             let slope = |i: usize, vt: R::V| -> (R::V, R::V) {
                 let w = m.particle_inv_mass[i];
-                if w == R::ZERO {
-                    (R::V::ZERO, R::V::ZERO)
-                } else {
-                    (vt, particle_force(m, f, surface, i) * w)
-                }
+                if w == R::ZERO { (R::V::ZERO, R::V::ZERO) } else { (vt, particle_force(m, f, surface, i) * w) }
             };
             if stage < 3 {
                 let cn = c_next[stage];
                 let (x0, v0) = (&s.particle_q, &s.particle_qd);
-                par::chunks4(
-                    &mut rk.xt,
-                    &mut rk.vt,
-                    &mut rk.ax,
-                    &mut rk.av,
-                    |start, xs, vs, axs, avs| {
-                        for k in 0..xs.len() {
-                            let i = start + k;
-                            let (kx, kv) = slope(i, vs[k]);
-                            if first {
-                                axs[k] = kx * ws;
-                                avs[k] = kv * ws;
-                            } else {
-                                axs[k] += kx * ws;
-                                avs[k] += kv * ws;
-                            }
-                            xs[k] = x0[i] + kx * cn;
-                            vs[k] = v0[i] + kv * cn;
+                par::chunks4(&mut rk.xt, &mut rk.vt, &mut rk.ax, &mut rk.av, |start, xs, vs, axs, avs| {
+                    for k in 0..xs.len() {
+                        let i = start + k;
+                        let (kx, kv) = slope(i, vs[k]);
+                        if first {
+                            axs[k] = kx * ws;
+                            avs[k] = kv * ws;
+                        } else {
+                            axs[k] += kx * ws;
+                            avs[k] += kv * ws;
                         }
-                    },
-                );
+                        xs[k] = x0[i] + kx * cn;
+                        vs[k] = v0[i] + kv * cn;
+                    }
+                });
             } else {
                 let vt = &rk.vt;
                 par::chunks4(
@@ -434,13 +380,7 @@ impl<R: Real> CpuSolver<R> {
         self.rk = rk;
     }
 
-    fn implicit_euler(
-        &mut self,
-        m: &Model<R>,
-        s: &mut State<R>,
-        dt: R,
-        blown: &AtomicBool,
-    ) -> Result<(), StepError> {
+    fn implicit_euler(&mut self, m: &Model<R>, s: &mut State<R>, dt: R, blown: &AtomicBool) -> Result<(), StepError> {
         let h = dt;
         let h2 = h * h;
         let surface = self.forces(m, &s.particle_q, &s.particle_qd, s.time);
@@ -459,21 +399,14 @@ impl<R: Real> CpuSolver<R> {
                     let [i, j] = m.spring_indices[sidx];
                     let d = q[j as usize] - q[i as usize];
                     let l = d.length();
-                    let (ks, kd, l0) = (
-                        m.spring_stiffness[sidx],
-                        m.spring_damping[sidx],
-                        m.spring_rest_length[sidx],
-                    );
+                    let (ks, kd, l0) = (m.spring_stiffness[sidx], m.spring_damping[sidx], m.spring_rest_length[sidx]);
                     if l > R::ZERO {
                         us[k] = d * (R::ONE / l);
                         let iso = h2 * ks * (R::ONE - l0 / l).max(R::ZERO);
                         let axial = h2 * ks;
                         let hd = h * kd;
-                        cs[k] = if projected {
-                            [iso, axial, iso, axial + hd]
-                        } else {
-                            [iso, axial, iso + hd, axial + hd]
-                        };
+                        cs[k] =
+                            if projected { [iso, axial, iso, axial + hd] } else { [iso, axial, iso + hd, axial + hd] };
                     } else {
                         us[k] = R::V::ZERO;
                         let hd = if projected { R::ZERO } else { h * kd };
@@ -501,11 +434,7 @@ impl<R: Real> CpuSolver<R> {
             for b in 0..m.body_count() {
                 let gas = m.body_gas_amount[b];
                 let v = self.f.body_volume[b].max(m.body_rest_volume[b] * R::from_f64(1e-3));
-                im.body_c[b] = if gas > R::ZERO {
-                    h2 * gas / (v * v)
-                } else {
-                    R::ZERO
-                };
+                im.body_c[b] = if gas > R::ZERO { h2 * gas / (v * v) } else { R::ZERO };
             }
         }
         // Right-hand side b = h f0 + G(y_K(v0)) - Σ c_b g (g·v0), into r (the initial guess is 0).
@@ -603,12 +532,7 @@ impl<R: Real> CpuSolver<R> {
     }
 
     /// Preconditioned conjugate gradients on `A dv = r` with pinned particles filtered out.
-    fn cg_solve(
-        &mut self,
-        m: &Model<R>,
-        im: &mut ImplicitScratch<R>,
-        pressure: bool,
-    ) -> Result<(), StepError> {
+    fn cg_solve(&mut self, m: &Model<R>, im: &mut ImplicitScratch<R>, pressure: bool) -> Result<(), StepError> {
         let n = m.particle_count();
         im.dv.iter_mut().for_each(|x| *x = R::V::ZERO);
         let bnorm2 = par::sum(n, &mut im.partials, |i| im.r[i].dot(im.r[i]));
@@ -625,19 +549,13 @@ impl<R: Real> CpuSolver<R> {
         while it < self.config.cg_max_iterations && rr > tol2 {
             self.apply_a(m, im, pressure);
             let pap = par::sum(n, &mut im.partials, |i| im.p[i].dot(im.ap[i]));
-            if !(pap > R::ZERO) {
+            if !pap.is_finite() || pap <= R::ZERO {
                 // A is symmetric positive definite on the free particles by construction (clamped spring blocks,
                 // positive masses, positive semidefinite pressure term): a non-positive or NaN curvature means
                 // the state itself is broken.
                 let residual = (rr / bnorm2).to_f64().sqrt();
-                self.cg = CgStats {
-                    iterations: it,
-                    residual,
-                };
-                return Err(StepError::NoConvergence {
-                    iterations: it,
-                    residual,
-                });
+                self.cg = CgStats { iterations: it, residual };
+                return Err(StepError::NoConvergence { iterations: it, residual });
             }
             let alpha = rz / pap;
             {
@@ -663,15 +581,9 @@ impl<R: Real> CpuSolver<R> {
             it += 1;
         }
         let residual = (rr / bnorm2).to_f64().sqrt();
-        self.cg = CgStats {
-            iterations: it,
-            residual,
-        };
+        self.cg = CgStats { iterations: it, residual };
         if !residual.is_finite() {
-            return Err(StepError::NoConvergence {
-                iterations: it,
-                residual,
-            });
+            return Err(StepError::NoConvergence { iterations: it, residual });
         }
         Ok(())
     }
@@ -705,12 +617,7 @@ impl<R: Real> CpuSolver<R> {
 
     /// The net force on every particle at `state` [N] (gravity, springs, pressure, wind; not collisions) into
     /// `out`, which must have one entry per particle. Pinned particles get their force too.
-    pub fn compute_forces(
-        &mut self,
-        m: &Model<R>,
-        state: &State<R>,
-        out: &mut [R::V],
-    ) -> Result<(), StepError> {
+    pub fn compute_forces(&mut self, m: &Model<R>, state: &State<R>, out: &mut [R::V]) -> Result<(), StepError> {
         if state.particle_q.len() != m.particle_count() || out.len() != m.particle_count() {
             return Err(StepError::StateMismatch {
                 state: state.particle_q.len().min(out.len()),
@@ -738,10 +645,7 @@ impl<R: Real> CpuSolver<R> {
             return Err(StepError::BadTimeStep(dt));
         }
         if s.particle_q.len() != m.particle_count() || s.particle_qd.len() != m.particle_count() {
-            return Err(StepError::StateMismatch {
-                state: s.particle_q.len(),
-                model: m.particle_count(),
-            });
+            return Err(StepError::StateMismatch { state: s.particle_q.len(), model: m.particle_count() });
         }
         self.ensure_sized(m);
         let t0 = Instant::now();
@@ -769,12 +673,7 @@ impl<R: Real> CpuSolver<R> {
                     }
                 })
                 .unwrap_or((0, "velocity"));
-            return Err(StepError::NonFinite {
-                time: s.time,
-                dt,
-                particle,
-                what,
-            });
+            return Err(StepError::NonFinite { time: s.time, dt, particle, what });
         }
         Ok(())
     }
@@ -815,14 +714,7 @@ fn spring_gather<R: Real>(m: &Model<R>, buf: &[R::V], i: usize) -> R::V {
 }
 
 /// `out_s = B_s (p_j - p_i)` with `B_s = c[o] I + (c[o+1] - c[o]) u uᵀ` (o = 0: stiffness only, 2: system).
-fn spring_apply<R: Real>(
-    m: &Model<R>,
-    u: &[R::V],
-    coef: &[[R; 4]],
-    o: usize,
-    p: &[R::V],
-    out: &mut [R::V],
-) {
+fn spring_apply<R: Real>(m: &Model<R>, u: &[R::V], coef: &[[R; 4]], o: usize, p: &[R::V], out: &mut [R::V]) {
     par::chunks(out, |start, ys| {
         for k in 0..ys.len() {
             let s = start + k;
@@ -839,11 +731,7 @@ fn body_dots<R: Real>(m: &Model<R>, g: &[R::V], p: &[R::V], partials: &mut Vec<R
     for (b, o) in out.iter_mut().enumerate() {
         if m.body_gas_amount[b] > R::ZERO {
             *o = par::sum(m.particle_count(), partials, |i| {
-                if m.particle_body[i] as usize == b {
-                    g[i].dot(p[i])
-                } else {
-                    R::ZERO
-                }
+                if m.particle_body[i] as usize == b { g[i].dot(p[i]) } else { R::ZERO }
             });
         } else {
             *o = R::ZERO;

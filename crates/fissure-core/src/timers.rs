@@ -21,13 +21,7 @@ pub enum Stage {
 
 impl Stage {
     /// All stages in step order.
-    pub const ALL: [Stage; 5] = [
-        Stage::Springs,
-        Stage::Surface,
-        Stage::Integrate,
-        Stage::Solve,
-        Stage::Collide,
-    ];
+    pub const ALL: [Stage; 5] = [Stage::Springs, Stage::Surface, Stage::Integrate, Stage::Solve, Stage::Collide];
 
     /// Lower-case name.
     pub fn name(self) -> &'static str {
@@ -76,11 +70,7 @@ impl StageTimers {
 impl fmt::Display for StageTimers {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         let steps = self.steps.max(1) as f64;
-        writeln!(
-            f,
-            "{:<10} {:>12} {:>10} {:>8}",
-            "stage", "µs/step", "calls", "share"
-        )?;
+        writeln!(f, "{:<10} {:>12} {:>10} {:>8}", "stage", "µs/step", "calls", "share")?;
         let total = self.total.as_secs_f64().max(1e-12);
         for s in Stage::ALL {
             let t = self.time(s).as_secs_f64();
@@ -93,12 +83,6 @@ impl fmt::Display for StageTimers {
                 100.0 * t / total
             )?;
         }
-        write!(
-            f,
-            "{:<10} {:>12.2} {:>10}",
-            "total",
-            total * 1e6 / steps,
-            self.steps
-        )
+        write!(f, "{:<10} {:>12.2} {:>10}", "total", total * 1e6 / steps, self.steps)
     }
 }

@@ -50,12 +50,7 @@ impl Topology {
                     let (_, _, f1, d1) = half[i + 1];
                     if d0 == d1 {
                         let (s, e) = if d0 { (a, b) } else { (b, a) };
-                        return Err(MeshError::InconsistentWinding {
-                            a: s,
-                            b: e,
-                            t0: f0,
-                            t1: f1,
-                        });
+                        return Err(MeshError::InconsistentWinding { a: s, b: e, t0: f0, t1: f1 });
                     }
                     edge_faces.push([f0, f1]);
                 }
@@ -73,25 +68,14 @@ impl Topology {
         }
         let vertex_faces = Csr::from_pairs(
             vertex_count,
-            triangles
-                .iter()
-                .enumerate()
-                .flat_map(|(f, t)| t.iter().map(move |&v| (v, f as u32))),
+            triangles.iter().enumerate().flat_map(|(f, t)| t.iter().map(move |&v| (v, f as u32))),
         );
-        Ok(Topology {
-            edges,
-            edge_faces,
-            vertex_faces,
-        })
+        Ok(Topology { edges, edge_faces, vertex_faces })
     }
 
     /// Indices (into [`Self::edges`]) of the edges with a single face.
     pub fn boundary_edges(&self) -> impl Iterator<Item = usize> + '_ {
-        self.edge_faces
-            .iter()
-            .enumerate()
-            .filter(|(_, f)| f[1] == NONE)
-            .map(|(e, _)| e)
+        self.edge_faces.iter().enumerate().filter(|(_, f)| f[1] == NONE).map(|(e, _)| e)
     }
 
     /// True when every edge has two faces.
@@ -127,10 +111,7 @@ impl Topology {
                 cycle.push(u);
                 // Next unused half-edge leaving v (a pinched vertex has several; take the first, deterministic).
                 let lo = directed.partition_point(|&(x, _)| x < v);
-                match (lo..directed.len())
-                    .take_while(|&k| directed[k].0 == v)
-                    .find(|&k| !used[k])
-                {
+                match (lo..directed.len()).take_while(|&k| directed[k].0 == v).find(|&k| !used[k]) {
                     Some(k) => cur = k,
                     None => break,
                 }
@@ -143,10 +124,7 @@ impl Topology {
 
 /// Connected components of a graph given by its edges: `(count, label per vertex)`, labels numbered in order
 /// of each component's lowest vertex (deterministic).
-pub fn connected_components(
-    vertex_count: usize,
-    edges: impl Iterator<Item = [u32; 2]>,
-) -> (usize, Vec<u32>) {
+pub fn connected_components(vertex_count: usize, edges: impl Iterator<Item = [u32; 2]>) -> (usize, Vec<u32>) {
     let mut parent: Vec<u32> = (0..vertex_count as u32).collect();
     fn find(p: &mut [u32], mut x: u32) -> u32 {
         while p[x as usize] != x {

@@ -47,12 +47,7 @@ impl Default for WindField {
 impl WindField {
     /// A steady, uniform wind (no gusts, no crosswind).
     pub fn steady(velocity: DVec3) -> Self {
-        WindField {
-            velocity,
-            gust_amplitude: 0.0,
-            crosswind: 0.0,
-            ..Default::default()
-        }
+        WindField { velocity, gust_amplitude: 0.0, crosswind: 0.0, ..Default::default() }
     }
 
     /// Wind velocity at point `x` [m] and time `t` [s].
@@ -71,8 +66,7 @@ impl WindField {
             side = DVec3::X;
         }
         let side = side.normalize();
-        self.velocity * (1.0 + self.gust_amplitude * phase.sin())
-            + side * (self.crosswind * speed * phase2.sin())
+        self.velocity * (1.0 + self.gust_amplitude * phase.sin()) + side * (self.crosswind * speed * phase2.sin())
     }
 }
 
@@ -87,19 +81,13 @@ pub struct Aero {
 
 impl Default for Aero {
     fn default() -> Self {
-        Aero {
-            drag: 1.0,
-            lift: 0.5,
-        }
+        Aero { drag: 1.0, lift: 0.5 }
     }
 }
 
 impl Aero {
     /// No aerodynamic force.
-    pub const NONE: Aero = Aero {
-        drag: 0.0,
-        lift: 0.0,
-    };
+    pub const NONE: Aero = Aero { drag: 0.0, lift: 0.0 };
 
     /// True when this surface feels the wind.
     pub fn is_active(&self) -> bool {

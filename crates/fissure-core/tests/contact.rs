@@ -123,7 +123,10 @@ fn no_particle_is_left_inside_any_collider_shape() {
                     contacts[ci] += 1;
                 }
                 // Inside by more than f32 rounding of the projection is a failure.
-                assert!(!proj.is_inside || depth < 1e-5, "step {step}: particle {q:?} is {depth} m inside collider {ci}");
+                assert!(
+                    !proj.is_inside || depth < 1e-5,
+                    "step {step}: particle {q:?} is {depth} m inside collider {ci}"
+                );
             }
         }
     }
@@ -204,4 +207,39 @@ fn cloth_pinned_at_two_corners_hangs_from_them() {
     let speed = model.momentum(&s).length() / model.total_mass();
     // Without air it still swings at ~1.8 m/s after 4 s; air drag must have taken most of that out.
     assert!(speed < 0.3, "still swinging at {speed} m/s");
+}
+
+#[test]
+fn analytic_shape_projections_agree_with_parry() {
+    // The closed-form paths for half-spaces, balls, cuboids and capsules must put an interior point where
+    // parry3d's own point projection does (which the trimesh path uses).
+    use fissure_core::glam::Quat;
+    let shapes = [
+        Collider::plane(Vec3::new(0.1, 0.2, 0.3), Vec3::new(0.3, 1.0, -0.2)),
+        Collider::ball(Vec3::new(0.2, -0.1, 0.4), 0.7),
+        Collider::cuboid(Vec3::new(-0.3, 0.2, 0.1), Vec3::new(0.5, 0.3, 0.8)).with_rotation(Quat::from_rotation_y(0.7)),
+        Collider::capsule(Vec3::new(-0.4, 0.0, 0.1), Vec3::new(0.5, 0.3, -0.2), 0.35),
+    ];
+    let mut seed = 1u64;
+    let mut rnd = || {
+        seed = seed.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+        ((seed >> 40) as f32 / (1u64 << 24) as f32) * 2.0 - 1.0
+    };
+    let mut checked = 0;
+    for c in &shapes {
+        let pose = c.pose_at(0.0);
+        for _ in 0..2000 {
+            let x = Vec3::new(rnd(), rnd(), rnd()) * 1.2;
+            let local = pose.inverse_transform_point(x);
+            let proj = c.shape.project_local_point(local, false);
+            let resolved = c.resolve(0.0, x, Vec3::ZERO);
+            assert_eq!(resolved.is_some(), proj.is_inside, "{:?} at {x:?}", c.shape.shape_type());
+            if let Some((x_new, _)) = resolved {
+                let expected = pose.transform_point(proj.point);
+                assert!((x_new - expected).length() < 1e-5, "{:?}: {x_new:?} vs parry {expected:?}", c.shape.shape_type());
+                checked += 1;
+            }
+        }
+    }
+    assert!(checked > 1000, "only {checked} interior points checked");
 }

@@ -16,8 +16,14 @@ fn scene() -> Model<f32> {
         ..Default::default()
     };
     b.add_soft_body(&Mesh::icosphere(0.3, 4).translated(DVec3::new(0.0, 0.5, 0.0)), &ball).unwrap();
-    b.add_cloth_grid(48, 48, 0.02, |p| DVec3::new(p.x - 0.5, 1.2, p.y), &ClothOptions { pins: vec![0, 47], mass: Mass::PerParticle(1e-3), ..Default::default() })
-        .unwrap();
+    b.add_cloth_grid(
+        48,
+        48,
+        0.02,
+        |p| DVec3::new(p.x - 0.5, 1.2, p.y),
+        &ClothOptions { pins: vec![0, 47], mass: Mass::PerParticle(1e-3), ..Default::default() },
+    )
+    .unwrap();
     b.wind(WindField::default());
     b.add_collider(Collider::ground(0.0));
     b.add_collider(Collider::ball(Vec3::new(0.1, 0.1, 0.0), 0.15));

@@ -30,7 +30,10 @@ fn each_bad_input_gets_its_own_error() {
     assert!(matches!(Mesh::new(bad, t.clone()), Err(MeshError::NonFinite { vertex: 1, .. })));
     let mut tt = t.clone();
     tt[3][1] = 9;
-    assert!(matches!(Mesh::new(p.clone(), tt), Err(MeshError::IndexOutOfRange { triangle: 3, index: 9, vertex_count: 4 })));
+    assert!(matches!(
+        Mesh::new(p.clone(), tt),
+        Err(MeshError::IndexOutOfRange { triangle: 3, index: 9, vertex_count: 4 })
+    ));
     let mut tt = t.clone();
     tt[1] = [0, 1, 1];
     assert!(matches!(Mesh::new(p.clone(), tt), Err(MeshError::Degenerate { triangle: 1, .. })));
@@ -47,7 +50,8 @@ fn each_bad_input_gets_its_own_error() {
     assert!(matches!(Mesh::new(p.clone(), tt), Err(MeshError::InconsistentWinding { .. })));
     assert!(matches!(Mesh::new(vec![], vec![]), Err(MeshError::Empty { .. })));
     // Messages name the problem.
-    let msg = Mesh::new(vec![DVec3::new(f64::NAN, 0.0, 0.0), DVec3::X, DVec3::Y], vec![[0, 1, 2]]).unwrap_err().to_string();
+    let msg =
+        Mesh::new(vec![DVec3::new(f64::NAN, 0.0, 0.0), DVec3::X, DVec3::Y], vec![[0, 1, 2]]).unwrap_err().to_string();
     assert!(msg.contains("non-finite") && msg.contains("vertex 0"), "{msg}");
 }
 
@@ -186,7 +190,8 @@ fn unwelded_seams_leave_the_surface_open() {
         match w.first() {
             Some(&"v") => p.push(DVec3::new(w[1].parse().unwrap(), w[2].parse().unwrap(), w[3].parse().unwrap())),
             Some(&"f") => {
-                let i: Vec<u32> = w[1..].iter().map(|s| s.split('/').next().unwrap().parse::<u32>().unwrap() - 1).collect();
+                let i: Vec<u32> =
+                    w[1..].iter().map(|s| s.split('/').next().unwrap().parse::<u32>().unwrap() - 1).collect();
                 t.push([i[0], i[1], i[2]]);
                 t.push([i[0], i[2], i[3]]);
             }
@@ -232,7 +237,8 @@ fn membrane_stiffness_is_resolution_independent() {
     let force_for = |n: usize| {
         let mut b = ModelBuilder::new();
         b.gravity(DVec3::ZERO);
-        let opts = ClothOptions { stiffness: Stiffness::Membrane(100.0), shear: None, bending: None, ..Default::default() };
+        let opts =
+            ClothOptions { stiffness: Stiffness::Membrane(100.0), shear: None, bending: None, ..Default::default() };
         b.add_cloth_grid(n, n, 1.0 / (n - 1) as f64, |p| p, &opts).unwrap();
         let model: Model<f64> = b.finalize().unwrap();
         let mut s = model.state();

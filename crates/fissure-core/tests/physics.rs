@@ -12,9 +12,7 @@ fn oscillator(m: f64, k: f64, amp: f64) -> (Model<f64>, State<f64>, f64) {
     b.gravity(DVec3::ZERO);
     let l0 = 1.0;
     let anchor = b.add_particle(DVec3::ZERO, DVec3::ZERO, 0.0).unwrap();
-    let mass = b
-        .add_particle(DVec3::new(l0, 0.0, 0.0), DVec3::ZERO, m)
-        .unwrap();
+    let mass = b.add_particle(DVec3::new(l0, 0.0, 0.0), DVec3::ZERO, m).unwrap();
     b.add_spring(anchor, mass, k, 0.0).unwrap();
     let model: Model<f64> = b.finalize().unwrap();
     let mut s = model.state();
@@ -23,12 +21,7 @@ fn oscillator(m: f64, k: f64, amp: f64) -> (Model<f64>, State<f64>, f64) {
 }
 
 fn solver(integrator: Integrator) -> CpuSolver<f64> {
-    CpuSolver::new(SolverConfig {
-        integrator,
-        cg_tolerance: 1e-14,
-        cg_max_iterations: 50,
-        check_finite: true,
-    })
+    CpuSolver::new(SolverConfig { integrator, cg_tolerance: 1e-14, cg_max_iterations: 50, check_finite: true })
 }
 
 #[test]
@@ -53,10 +46,7 @@ fn oscillator_period_is_two_pi_sqrt_m_over_k() {
     let measured = (crossings[crossings.len() - 1] - crossings[0]) / (crossings.len() - 1) as f64;
     // RK4 at 2000 steps per period: phase error ~1e-13; interpolation error ~ (ω dt)² amp: 1e-6 relative.
     let rel = (measured - period).abs() / period;
-    assert!(
-        rel < 1e-6,
-        "period {measured} vs 2π√(m/k) = {period}: relative error {rel:e}"
-    );
+    assert!(rel < 1e-6, "period {measured} vs 2π√(m/k) = {period}: relative error {rel:e}");
 }
 
 /// Phase-space error `|x - x*| + |v - v*|/ω` after 0.3 periods.
@@ -80,14 +70,8 @@ fn oscillator_error(integrator: Integrator, steps: usize) -> f64 {
 #[test]
 fn each_integrator_converges_at_its_order() {
     for integrator in Integrator::ALL {
-        let base = if integrator == Integrator::Rk4 {
-            16
-        } else {
-            200
-        };
-        let errs: Vec<f64> = (0..4)
-            .map(|i| oscillator_error(integrator, base << i))
-            .collect();
+        let base = if integrator == Integrator::Rk4 { 16 } else { 200 };
+        let errs: Vec<f64> = (0..4).map(|i| oscillator_error(integrator, base << i)).collect();
         let orders: Vec<f64> = errs.windows(2).map(|w| (w[0] / w[1]).log2()).collect();
         let mean = orders.iter().sum::<f64>() / orders.len() as f64;
         // Tolerance 0.2 on the order, as the accuracy harness uses.
@@ -124,18 +108,8 @@ fn free_fall_matches_closed_form() {
             Integrator::SymplecticEuler | Integrator::ImplicitEuler => exact + g * (0.5 * dt * t),
         };
         let err = (s.particle_q[0] - expected).length();
-        assert!(
-            err < 1e-10,
-            "{}: x = {:?}, expected {:?}",
-            integrator.name(),
-            s.particle_q[0],
-            expected
-        );
-        assert!(
-            (s.particle_qd[0] - (v0 + g * t)).length() < 1e-10,
-            "{}",
-            integrator.name()
-        );
+        assert!(err < 1e-10, "{}: x = {:?}, expected {:?}", integrator.name(), s.particle_q[0], expected);
+        assert!((s.particle_qd[0] - (v0 + g * t)).length() < 1e-10, "{}", integrator.name());
     }
 }
 
@@ -151,11 +125,7 @@ fn free_ball(subdiv: u32, seed: u64) -> (Model<f64>, State<f64>) {
         gas: Gas::Pressure(3000.0),
         ..Default::default()
     };
-    b.add_soft_body(
-        &Mesh::icosphere(0.2, subdiv).translated(DVec3::new(0.3, 1.0, -0.2)),
-        &opts,
-    )
-    .unwrap();
+    b.add_soft_body(&Mesh::icosphere(0.2, subdiv).translated(DVec3::new(0.3, 1.0, -0.2)), &opts).unwrap();
     let model: Model<f64> = b.finalize().unwrap();
     let mut s = model.state();
     let mut rng = Rng(seed);
@@ -168,39 +138,25 @@ fn free_ball(subdiv: u32, seed: u64) -> (Model<f64>, State<f64>) {
 
 #[test]
 fn internal_forces_sum_to_zero_and_momentum_is_conserved() {
-    let (model, mut s) = free_ball(2, 7);
-    let mut solver = solver(Integrator::SymplecticEuler);
+    let (model, s) = free_ball(2, 7);
     let mut f = vec![DVec3::ZERO; model.particle_count()];
-    solver.compute_forces(&model, &s, &mut f).unwrap();
+    solver(Integrator::SymplecticEuler).compute_forces(&model, &s, &mut f).unwrap();
     let net: DVec3 = f.iter().copied().sum();
     let scale: f64 = f.iter().map(|v| v.length()).sum();
     // Pairwise-opposite spring forces and a closed surface's pressure cancel to rounding: 1e-13 of Σ|f|.
-    assert!(
-        net.length() < 1e-13 * scale,
-        "net internal force {net:?} (Σ|f| = {scale})"
-    );
+    assert!(net.length() < 1e-13 * scale, "net internal force {net:?} (Σ|f| = {scale})");
     let p0 = model.momentum(&s);
     for integrator in Integrator::ALL {
         let mut s2 = s.clone();
-        let mut solver = solver_for(integrator);
+        let mut sv = solver(integrator);
         for _ in 0..500 {
-            solver.step(&model, &mut s2, 1e-4).unwrap();
+            sv.step(&model, &mut s2, 1e-4).unwrap();
         }
         let dp = (model.momentum(&s2) - p0).length();
-        let pscale: f64 = (0..model.particle_count())
-            .map(|i| model.particle_mass[i] * s2.particle_qd[i].length())
-            .sum();
-        assert!(
-            dp < 1e-12 * pscale.max(1.0),
-            "{}: momentum drift {dp:e}",
-            integrator.name()
-        );
+        let pscale: f64 =
+            (0..model.particle_count()).map(|i| model.particle_mass[i] * s2.particle_qd[i].length()).sum();
+        assert!(dp < 1e-12 * pscale.max(1.0), "{}: momentum drift {dp:e}", integrator.name());
     }
-    solver.step(&model, &mut s, 1e-4).unwrap();
-}
-
-fn solver_for(integrator: Integrator) -> CpuSolver<f64> {
-    solver(integrator)
 }
 
 #[test]
@@ -214,28 +170,20 @@ fn net_pressure_force_on_a_closed_surface_is_zero() {
         ..Default::default()
     };
     // A lumpy closed surface far from the origin: the sum must vanish there too.
-    let mut rng = Rng(3);
-    let mesh = Mesh::icosphere(0.5, 3)
-        .map_positions(|p| p * (1.0 + 0.2 * rng_like(p)) + DVec3::splat(100.0))
-        .unwrap();
-    let _ = rng.sym();
+    let mesh = Mesh::icosphere(0.5, 3).map_positions(|p| p * (1.0 + 0.2 * bumps(p)) + DVec3::splat(100.0)).unwrap();
     b.add_soft_body(&mesh, &opts).unwrap();
     let model: Model<f64> = b.finalize().unwrap();
     let s = model.state();
     let mut f = vec![DVec3::ZERO; model.particle_count()];
-    CpuSolver::<f64>::default()
-        .compute_forces(&model, &s, &mut f)
-        .unwrap();
+    CpuSolver::<f64>::default().compute_forces(&model, &s, &mut f).unwrap();
     let net: DVec3 = f.iter().copied().sum();
     let scale: f64 = f.iter().map(|v| v.length()).sum();
     assert!(scale > 1.0, "pressure forces present");
-    assert!(
-        net.length() < 1e-12 * scale,
-        "net pressure force {net:?} vs Σ|f| {scale}"
-    );
+    assert!(net.length() < 1e-12 * scale, "net pressure force {net:?} vs Σ|f| {scale}");
 }
 
-fn rng_like(p: DVec3) -> f64 {
+/// A smooth deterministic bump field, for lumpy test surfaces.
+fn bumps(p: DVec3) -> f64 {
     (p.x * 12.9898 + p.y * 78.233 + p.z * 37.719).sin()
 }
 
@@ -259,31 +207,26 @@ fn spring_and_pressure_forces_are_minus_energy_gradients() {
         *q += rng.vec() * 0.03;
     }
     let mut f = vec![DVec3::ZERO; model.particle_count()];
-    CpuSolver::<f64>::default()
-        .compute_forces(&model, &s, &mut f)
-        .unwrap();
+    CpuSolver::<f64>::default().compute_forces(&model, &s, &mut f).unwrap();
     let energy = |s: &State<f64>| {
         let e = model.energy(s);
         e.spring + e.gas
     };
     let h = 1e-6;
     let mut worst: f64 = 0.0;
-    for i in 0..model.particle_count() {
+    for (i, fi) in f.iter().enumerate() {
         for axis in 0..3 {
             let mut sp = s.clone();
             let mut sm = s.clone();
             sp.particle_q[i][axis] += h;
             sm.particle_q[i][axis] -= h;
             let grad = (energy(&sp) - energy(&sm)) / (2.0 * h);
-            let err = (f[i][axis] + grad).abs() / (1.0 + f[i].length());
+            let err = (fi[axis] + grad).abs() / (1.0 + fi.length());
             worst = worst.max(err);
         }
     }
     // Central differences in f64 with h = 1e-6: truncation ~h², round-off ~1e-16 E / h ~ 1e-9.
-    assert!(
-        worst < 1e-6,
-        "force differs from -∇E by {worst:e} (relative)"
-    );
+    assert!(worst < 1e-6, "force differs from -∇E by {worst:e} (relative)");
 }
 
 #[test]
@@ -318,10 +261,7 @@ fn slowly_compressed_ball_follows_boyle() {
         }
         let v = model.body_volumes(&s)[0];
         let ratio = p_ext * v / nrt;
-        assert!(
-            (ratio - 1.0).abs() < 0.01,
-            "P_ext = {p_ext} Pa: P·V/nRT = {ratio}"
-        );
+        assert!((ratio - 1.0).abs() < 0.01, "P_ext = {p_ext} Pa: P·V/nRT = {ratio}");
         let ke = model.energy(&s).kinetic;
         assert!(ke < 1e-6, "not settled: kinetic energy {ke}");
     }
@@ -372,20 +312,12 @@ fn undamped_symplectic_integrators_keep_energy_bounded_for_1e5_steps() {
         }
         // Symplectic: the energy oscillates in a band of O(dt) (Euler) or O(dt²) (Verlet) and does not drift.
         // The band is O(ω dt) of the exchanged energy for Euler (ω dt ≈ 0.2 here), O((ω dt)²) for Verlet.
-        let band = if integrator == Integrator::SymplecticEuler {
-            0.08
-        } else {
-            0.01
-        };
+        let band = if integrator == Integrator::SymplecticEuler { 0.08 } else { 0.01 };
         assert!(
             (hi - lo) < band * ke_max,
             "{}: energy band [{lo}, {hi}] vs peak kinetic energy {ke_max}",
             integrator.name()
         );
-        assert!(
-            late_max < 1.5 * early_max,
-            "{}: energy drifts ({early_max:e} -> {late_max:e})",
-            integrator.name()
-        );
+        assert!(late_max < 1.5 * early_max, "{}: energy drifts ({early_max:e} -> {late_max:e})", integrator.name());
     }
 }

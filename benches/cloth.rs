@@ -1,0 +1,63 @@
+//! The foundation benchmark: a 128 × 128 cloth (spacing 1 cm, 1 g per particle, structural + shear + bend springs =
+//! 97,026, k = 1000 N/m, two corners pinned, gravity, symplectic Euler, dt = 2e-4 s), one step per iteration.
+//!
+//! Run: `cargo bench --bench cloth`. `FISSURE_BENCH_QUICK=1` shrinks the grid to 32 × 32 so CI can run it fast.
+
+use criterion::{Criterion, criterion_group, criterion_main};
+use fissure::glam::DVec3;
+use fissure::*;
+use std::hint::black_box;
+use std::time::Instant;
+
+fn cloth(n: usize) -> Model<f32> {
+    let mut b = ModelBuilder::new();
+    let opts = ClothOptions {
+        mass: Mass::PerParticle(1e-3),
+        stiffness: Stiffness::PerSpring(1000.0),
+        shear: Some(Stiffness::PerSpring(1000.0)),
+        bending: Some(Stiffness::PerSpring(1000.0)),
+        damping: Damping::PerSpring(0.01),
+        pins: vec![0, n - 1],
+        aero: Aero::NONE,
+    };
+    b.add_cloth_grid(n, n, 0.01, |p| DVec3::new(p.x, 1.0, p.y), &opts).unwrap();
+    b.finalize().unwrap()
+}
+
+fn bench(c: &mut Criterion) {
+    let n = if std::env::var_os("FISSURE_BENCH_QUICK").is_some() { 32 } else { 128 };
+    let model = cloth(n);
+    let mut state = model.state();
+    let mut solver = CpuSolver::<f32>::default();
+    let dt = 2e-4;
+    // Warm up into a deformed state, and print the per-stage picture once.
+    for _ in 0..200 {
+        solver.step(&model, &mut state, dt).unwrap();
+    }
+    solver.reset_timers();
+    let steps = 2000;
+    let t0 = Instant::now();
+    for _ in 0..steps {
+        solver.step(&model, &mut state, dt).unwrap();
+    }
+    let per_step = t0.elapsed().as_secs_f64() / steps as f64;
+    println!(
+        "cloth {n}x{n}: {} particles, {} springs, {} threads: {:.1} µs/step ({:.0} steps/s, {:.2e} particle-steps/s)",
+        model.particle_count(),
+        model.spring_count(),
+        rayon::current_num_threads(),
+        per_step * 1e6,
+        1.0 / per_step,
+        model.particle_count() as f64 / per_step
+    );
+    println!("{}", solver.timers());
+    c.bench_function(&format!("cloth_{n}x{n}_symplectic_euler_step"), |b| {
+        b.iter(|| {
+            solver.step(&model, &mut state, dt).unwrap();
+            black_box(&state);
+        })
+    });
+}
+
+criterion_group!(benches, bench);
+criterion_main!(benches);

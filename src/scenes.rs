@@ -1,0 +1,83 @@
+//! The scenes of the seed paper, built in code and shared by the examples, tests and benchmarks.
+
+use crate::*;
+use glam::{DVec3, Vec3};
+
+/// Parameters of [`ball_drop`].
+#[derive(Clone, Debug, PartialEq)]
+pub struct BallDrop {
+    /// Ball radius [m]. Default 0.25.
+    pub radius: f64,
+    /// Icosphere subdivisions (3: 642 vertices). Default 3.
+    pub subdivisions: u32,
+    /// Drop height of the ball's centre [m]. Default 1.6.
+    pub height: f64,
+    /// Initial gas pressure [Pa]. Default 2500.
+    pub pressure: f64,
+    /// Ball mass [kg]. Default 0.4.
+    pub mass: f64,
+    /// Half the width of the square room [m]. Default 1.2.
+    pub room_half_width: f32,
+}
+
+impl Default for BallDrop {
+    fn default() -> Self {
+        BallDrop { radius: 0.25, subdivisions: 3, height: 1.6, pressure: 2500.0, mass: 0.4, room_half_width: 1.2 }
+    }
+}
+
+/// The seed's Fig. 5: a pressurised ball dropped into a room with four walls and spherical obstacles, thrown
+/// slightly sideways so it hits an obstacle, a wall and the floor.
+pub fn ball_drop(p: &BallDrop) -> Result<ModelBuilder, ModelError> {
+    let mut b = ModelBuilder::new();
+    let opts = SoftBodyOptions {
+        mass: Mass::Total(p.mass),
+        stiffness: Stiffness::Membrane(2500.0),
+        damping: Damping::Ratio(0.3),
+        bending: Some(Stiffness::Membrane(50.0)),
+        gas: Gas::Pressure(p.pressure),
+        velocity: DVec3::new(0.8, 0.0, 0.3),
+        ..Default::default()
+    };
+    b.add_soft_body(&Mesh::icosphere(p.radius, p.subdivisions).translated(DVec3::new(-0.3, p.height, -0.1)), &opts)?;
+    room(&mut b, p.room_half_width);
+    for (c, r) in
+        [(Vec3::new(0.15, 0.3, 0.0), 0.3), (Vec3::new(-0.7, 0.2, 0.5), 0.2), (Vec3::new(0.6, 0.15, -0.6), 0.15)]
+    {
+        b.add_collider(Collider::ball(c, r).with_restitution(0.4).with_friction(0.3));
+    }
+    Ok(b)
+}
+
+/// A floor at y = 0 and four walls at `±half_width` in x and z.
+pub fn room(b: &mut ModelBuilder, half_width: f32) {
+    b.add_collider(Collider::ground(0.0).with_restitution(0.3).with_friction(0.5));
+    for (p, n) in [
+        (Vec3::new(half_width, 0.0, 0.0), Vec3::NEG_X),
+        (Vec3::new(-half_width, 0.0, 0.0), Vec3::X),
+        (Vec3::new(0.0, 0.0, half_width), Vec3::NEG_Z),
+        (Vec3::new(0.0, 0.0, -half_width), Vec3::Z),
+    ] {
+        b.add_collider(Collider::plane(p, n).with_restitution(0.5).with_friction(0.2));
+    }
+}
+
+/// The seed's Fig. 4: a cloth hanging from two corners in a gusty wind. `n × n` particles, 1 m wide.
+pub fn cloth_wind(n: usize) -> Result<ModelBuilder, ModelError> {
+    let mut b = ModelBuilder::new();
+    let spacing = 1.0 / (n - 1) as f64;
+    let opts = ClothOptions {
+        mass: Mass::AreaDensity(0.3),
+        stiffness: Stiffness::Membrane(400.0),
+        shear: Some(Stiffness::Membrane(100.0)),
+        bending: Some(Stiffness::Membrane(20.0)),
+        damping: Damping::Ratio(0.2),
+        pins: vec![0, n - 1],
+        aero: Aero::default(),
+    };
+    // Vertical sheet in the XY plane, top edge at y = 1.5, facing the wind along +z.
+    b.add_cloth_grid(n, n, spacing, |q| DVec3::new(q.x - 0.5, 1.5 + q.y, 0.0), &opts)?;
+    b.wind(WindField { velocity: DVec3::new(0.0, 0.0, 4.0), ..Default::default() });
+    b.add_collider(Collider::ground(0.0));
+    Ok(b)
+}
