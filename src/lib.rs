@@ -16,7 +16,7 @@
 //! let ball = Mesh::icosphere(0.2, 2).translated(DVec3::new(0.0, 1.0, 0.0));
 //! b.add_soft_body(&ball, &SoftBodyOptions { gas: Gas::Pressure(3000.0), ..Default::default() })?;
 //! b.add_collider(Collider::ground(0.0));
-//! let mut world = World::new(b.finalize()?, SolverConfig::default());
+//! let mut world: World<f32> = World::new(b.finalize()?, SolverConfig::default());
 //! world.advance(0.5, 1e-4)?; // half a second in steps of 0.1 ms
 //! assert!(world.model.center_of_mass(&world.state).y < 1.0);
 //! # Ok::<(), Box<dyn std::error::Error>>(())
@@ -26,6 +26,11 @@
 pub use fissure_core::*;
 
 pub mod scenes;
+
+/// The README's code, compiled and run as a doctest so it cannot rot.
+#[cfg(doctest)]
+#[doc = include_str!("../README.md")]
+struct ReadmeDoctests;
 
 /// A model, its state and a CPU solver, stepped together.
 pub struct World<R: Real = f32> {

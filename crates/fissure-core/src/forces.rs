@@ -16,8 +16,12 @@ use crate::real::{Real, Vector3};
 /// Reusable buffers of the force passes (allocated once per model size, never per step).
 #[derive(Clone, Debug, Default)]
 pub(crate) struct ForceScratch<R: Real> {
-    /// Force on spring end 0 (end 1 gets the negative) [N].
+    /// Force on spring end 0 (end 1 gets the negative) [N] (irregular meshes).
     pub spring_f: Vec<R::V>,
+    /// Sum of spring forces on each particle [N] (models made of spring runs).
+    pub particle_spring: Vec<R::V>,
+    /// Whether the run kernel is used (`particle_spring` holds the sums) or the gather (`spring_f`).
+    pub runs: bool,
     /// `(x1 - x0) × (x2 - x0)` of each triangle [m^2].
     pub tri_cross: Vec<R::V>,
     /// Force on each corner of each triangle (pressure + wind share) [N].
@@ -33,6 +37,8 @@ pub(crate) struct ForceScratch<R: Real> {
 impl<R: Real> ForceScratch<R> {
     pub fn resize(&mut self, m: &Model<R>) {
         self.spring_f.resize(m.spring_count(), R::V::ZERO);
+        self.runs = m.springs_are_runs();
+        self.particle_spring.resize(if self.runs { m.particle_count() } else { 0 }, R::V::ZERO);
         let surface = m.has_pressure() || m.has_wind();
         let nt = if surface { m.tri_count() } else { 0 };
         self.tri_cross.resize(nt, R::V::ZERO);
@@ -42,11 +48,13 @@ impl<R: Real> ForceScratch<R> {
         self.vol_partials.resize(nt.div_ceil(par::CHUNK).max(1) * m.body_count(), R::ZERO);
     }
 
-    /// Spring forces into `spring_f`.
+    /// Spring forces: per particle into `particle_spring` (runs), else per spring into `spring_f`.
     pub fn springs(&mut self, m: &Model<R>, q: &[R::V], qd: &[R::V]) {
-        match m.damping_model {
-            DampingModel::Projected => spring_pass::<R, true>(m, q, qd, &mut self.spring_f),
-            DampingModel::Unprojected => spring_pass::<R, false>(m, q, qd, &mut self.spring_f),
+        match (self.runs, m.damping_model) {
+            (true, DampingModel::Projected) => run_pass::<R, true>(m, q, qd, &mut self.particle_spring),
+            (true, DampingModel::Unprojected) => run_pass::<R, false>(m, q, qd, &mut self.particle_spring),
+            (false, DampingModel::Projected) => spring_pass::<R, true>(m, q, qd, &mut self.spring_f),
+            (false, DampingModel::Unprojected) => spring_pass::<R, false>(m, q, qd, &mut self.spring_f),
         }
     }
 
@@ -146,46 +154,207 @@ pub(crate) fn aero_force<R: Real>(c: R::V, v: R::V, cd: R, cl: R, rho_half: R) -
     drag + lift
 }
 
+/// One spring's force on its end 0 (branch-free, so span loops vectorise).
+#[inline(always)]
+fn spring_force<R: Real, const PROJECTED: bool>(d: R::V, dv: R::V, rest: R, ks: R, kd: R) -> R::V {
+    let l2 = d.length_squared();
+    let l = l2.sqrt();
+    // Coincident ends have no direction and no elastic force.
+    let inv = if l2 > R::ZERO { R::ONE / l } else { R::ZERO };
+    let u = d * inv;
+    if PROJECTED { u * (ks * (l - rest) + kd * dv.dot(u)) } else { u * (ks * (l - rest)) + dv * kd }
+}
+
 fn spring_pass<R: Real, const PROJECTED: bool>(m: &Model<R>, q: &[R::V], qd: &[R::V], out: &mut [R::V]) {
-    let idx = &m.spring_indices[..out.len()];
-    let rest = &m.spring_rest_length[..out.len()];
-    let ks = &m.spring_stiffness[..out.len()];
-    let kd = &m.spring_damping[..out.len()];
+    let n = out.len();
+    let (idx, rest, ks, kd) =
+        (&m.spring_indices[..n], &m.spring_rest_length[..n], &m.spring_stiffness[..n], &m.spring_damping[..n]);
     par::chunks(out, |start, chunk| {
         let end = start + chunk.len();
         let (idx, rest, ks, kd) = (&idx[start..end], &rest[start..end], &ks[start..end], &kd[start..end]);
         for (k, f) in chunk.iter_mut().enumerate() {
             let [i, j] = idx[k];
             let (i, j) = (i as usize, j as usize);
-            let d = q[j] - q[i];
-            let dv = qd[j] - qd[i];
-            let l2 = d.length_squared();
-            if l2 > R::ZERO {
-                let l = l2.sqrt();
-                let u = d * (R::ONE / l);
-                *f = if PROJECTED {
-                    u * (ks[k] * (l - rest[k]) + kd[k] * dv.dot(u))
-                } else {
-                    u * (ks[k] * (l - rest[k])) + dv * kd[k]
-                };
-            } else {
-                // Coincident ends: no direction, no elastic force.
-                *f = if PROJECTED { R::V::ZERO } else { dv * kd[k] };
-            }
+            *f = spring_force::<R, PROJECTED>(q[j] - q[i], qd[j] - qd[i], rest[k], ks[k], kd[k]);
         }
     });
+}
+
+/// Springs computed per span of a run at a time.
+const SPAN: usize = 64;
+
+/// Per-component stack arrays of [`span_forces`], created once per block and reused by every span.
+struct SpanScratch<R: Real> {
+    d: [[R; SPAN]; 3],
+    w: [[R; SPAN]; 3],
+    p: [[R; SPAN]; 3],
+    f: [[R; SPAN]; 3],
+}
+
+impl<R: Real> SpanScratch<R> {
+    fn new() -> Self {
+        let z = [[R::ZERO; SPAN]; 3];
+        SpanScratch { d: z, w: z, p: z, f: z }
+    }
+}
+
+/// Forces of a span of springs with contiguous ends. The positions arrive as 3-vectors (array of structs), which
+/// no compiler vectorises well; they are transposed into per-component arrays, the maths runs on those (plain
+/// loops over `[R; SPAN]` that LLVM turns into packed code, square roots and divisions included), and the
+/// result is transposed back. Lanes past `out.len()` hold stale values from an earlier span: computed, never
+/// used. Same operations in the same order as [`spring_force`].
+#[allow(clippy::too_many_arguments)]
+#[inline(always)]
+fn span_forces<R: Real, const PROJECTED: bool>(
+    t: &mut SpanScratch<R>,
+    qi: &[R::V],
+    qj: &[R::V],
+    vi: &[R::V],
+    vj: &[R::V],
+    rest: &[R],
+    ks: &[R],
+    kd: &[R],
+    out: &mut [R::V],
+) {
+    let n = out.len();
+    let (qi, qj, vi, vj, rest, ks, kd) = (&qi[..n], &qj[..n], &vi[..n], &vj[..n], &rest[..n], &ks[..n], &kd[..n]);
+    for k in 0..n {
+        let [a, b, c] = (qj[k] - qi[k]).to_array();
+        let [e, f, g] = (vj[k] - vi[k]).to_array();
+        (t.d[0][k], t.d[1][k], t.d[2][k]) = (a, b, c);
+        (t.w[0][k], t.w[1][k], t.w[2][k]) = (e, f, g);
+        (t.p[0][k], t.p[1][k], t.p[2][k]) = (rest[k], ks[k], kd[k]);
+    }
+    let z = R::ZERO;
+    let ([dx, dy, dz], [wx, wy, wz], [r, s, d]) = (&t.d, &t.w, &t.p);
+    let [fx, fy, fz] = &mut t.f;
+    for k in 0..SPAN {
+        let l2 = dx[k] * dx[k] + dy[k] * dy[k] + dz[k] * dz[k];
+        let l = l2.sqrt();
+        let inv = if l2 > z { R::ONE / l } else { z };
+        let (ux, uy, uz) = (dx[k] * inv, dy[k] * inv, dz[k] * inv);
+        if PROJECTED {
+            let mag = s[k] * (l - r[k]) + d[k] * (wx[k] * ux + wy[k] * uy + wz[k] * uz);
+            fx[k] = ux * mag;
+            fy[k] = uy * mag;
+            fz[k] = uz * mag;
+        } else {
+            let mag = s[k] * (l - r[k]);
+            fx[k] = ux * mag + wx[k] * d[k];
+            fy[k] = uy * mag + wy[k] * d[k];
+            fz[k] = uz * mag + wz[k] * d[k];
+        }
+    }
+    for k in 0..n {
+        out[k] = R::V::new(fx[k], fy[k], fz[k]);
+    }
+}
+
+/// Spring forces summed per particle, for models made of [`crate::model::SpringRun`]s. Each fixed block of
+/// particles walks every run, computes the springs with an end in the block on contiguous slices (a span of up to
+/// 64 at a time, vectorised), and adds them to the block's particles: `+f` on end 0, `-f` on end 1. A spring
+/// with its ends in two blocks is computed by both. The order of additions per particle is fixed by the run order
+/// and the fixed block size, never by the thread count.
+fn run_pass<R: Real, const PROJECTED: bool>(m: &Model<R>, q: &[R::V], qd: &[R::V], out: &mut [R::V]) {
+    par::chunks(out, |p0, block| run_block_dispatch::<R, PROJECTED>(m, q, qd, p0, block));
+}
+
+/// [`run_block`] compiled for AVX2 when the CPU has it (detected once, cached by std), else for the baseline.
+/// Packed square roots and divisions are correctly rounded like the scalar ones and Rust never fuses
+/// multiply-adds on its own, so both versions give the same bits.
+#[inline]
+pub(crate) fn run_block_dispatch<R: Real, const PROJECTED: bool>(
+    m: &Model<R>,
+    q: &[R::V],
+    qd: &[R::V],
+    p0: usize,
+    block: &mut [R::V],
+) {
+    #[cfg(target_arch = "x86_64")]
+    {
+        if std::arch::is_x86_feature_detected!("avx2") {
+            // SAFETY: the CPU supports AVX2, checked just above.
+            unsafe { run_block_avx2::<R, PROJECTED>(m, q, qd, p0, block) };
+            return;
+        }
+    }
+    run_block::<R, PROJECTED>(m, q, qd, p0, block)
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+fn run_block_avx2<R: Real, const PROJECTED: bool>(
+    m: &Model<R>,
+    q: &[R::V],
+    qd: &[R::V],
+    p0: usize,
+    block: &mut [R::V],
+) {
+    run_block::<R, PROJECTED>(m, q, qd, p0, block)
+}
+
+/// Spring-force sums of particles `p0 .. p0 + block.len()` into `block`.
+#[inline(always)]
+fn run_block<R: Real, const PROJECTED: bool>(m: &Model<R>, q: &[R::V], qd: &[R::V], p0: usize, block: &mut [R::V]) {
+    let (rest, ks, kd) = (&m.spring_rest_length[..], &m.spring_stiffness[..], &m.spring_damping[..]);
+    let p1 = p0 + block.len();
+    block.iter_mut().for_each(|f| *f = R::V::ZERO);
+    let mut buf = [R::V::ZERO; SPAN];
+    let mut scratch = SpanScratch::<R>::new();
+    for r in &m.spring_runs {
+        let (i0, j0, len, s0) = (r.i as usize, r.j as usize, r.len as usize, r.first as usize);
+        // Spring indices k of this run with end 0 (a) or end 1 (b) in the block.
+        let (a0, a1) = (p0.saturating_sub(i0).min(len), p1.saturating_sub(i0).min(len));
+        let (b0, b1) = (p0.saturating_sub(j0).min(len), p1.saturating_sub(j0).min(len));
+        let ranges: [(usize, usize); 2] = if a0 < a1 && b0 < b1 && a0.max(b0) <= a1.min(b1) {
+            [(a0.min(b0), a1.max(b1)), (0, 0)]
+        } else {
+            [(a0, a1), (b0, b1)]
+        };
+        for (lo, hi) in ranges {
+            let mut k0 = lo;
+            while k0 < hi {
+                let k1 = (k0 + SPAN).min(hi);
+                let n = k1 - k0;
+                let (qi, qj) = (&q[i0 + k0..i0 + k1], &q[j0 + k0..j0 + k1]);
+                let (vi, vj) = (&qd[i0 + k0..i0 + k1], &qd[j0 + k0..j0 + k1]);
+                let (rs, kss, kds) = (&rest[s0 + k0..s0 + k1], &ks[s0 + k0..s0 + k1], &kd[s0 + k0..s0 + k1]);
+                span_forces::<R, PROJECTED>(&mut scratch, qi, qj, vi, vj, rs, kss, kds, &mut buf[..n]);
+                // End 0 of springs k in [max(k0, a0), min(k1, a1)) lies in the block: add.
+                let (c0, c1) = (k0.max(a0), k1.min(a1));
+                if c0 < c1 {
+                    let dst = &mut block[i0 + c0 - p0..i0 + c1 - p0];
+                    for (d, f) in dst.iter_mut().zip(&buf[c0 - k0..c1 - k0]) {
+                        *d += *f;
+                    }
+                }
+                let (c0, c1) = (k0.max(b0), k1.min(b1));
+                if c0 < c1 {
+                    let dst = &mut block[j0 + c0 - p0..j0 + c1 - p0];
+                    for (d, f) in dst.iter_mut().zip(&buf[c0 - k0..c1 - k0]) {
+                        *d -= *f;
+                    }
+                }
+                k0 = k1;
+            }
+        }
+    }
 }
 
 /// Net force on particle `i` [N]: gravity, then its springs and triangles in CSR order.
 #[inline(always)]
 pub(crate) fn particle_force<R: Real>(m: &Model<R>, s: &ForceScratch<R>, surface: bool, i: usize) -> R::V {
     let mut f = m.gravity * m.particle_mass[i];
-    for &e in m.particle_springs.row(i) {
-        let v = s.spring_f[(e >> 1) as usize];
-        if e & 1 == 0 {
-            f += v;
-        } else {
-            f -= v;
+    if s.runs {
+        f += s.particle_spring[i];
+    } else {
+        for &e in m.particle_springs.row(i) {
+            let v = s.spring_f[(e >> 1) as usize];
+            if e & 1 == 0 {
+                f += v;
+            } else {
+                f -= v;
+            }
         }
     }
     if surface {

@@ -23,7 +23,7 @@ pub use glam;
 pub use mesh::Mesh;
 pub use model::{
     BodyHandle, BodyKind, ClothOptions, Damping, DampingModel, Energy, Gas, Mass, Model, ModelBuilder, SoftBodyOptions,
-    SpringKind, State, Stiffness,
+    SpringKind, SpringRun, State, Stiffness,
 };
 pub use parry3d;
 pub use real::{Real, Vector3};

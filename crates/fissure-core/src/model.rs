@@ -596,6 +596,17 @@ impl ModelBuilder {
                 }
             }
         }
+        if grid.is_some() {
+            // Order grid springs by direction, then by first particle: every row (or the whole sheet) of one
+            // direction becomes a run of springs `(i0 + k, j0 + k)`, which the spring kernel walks as contiguous
+            // slices instead of gathering through indices.
+            for sp in &mut new_springs {
+                if sp.0[0] > sp.0[1] {
+                    sp.0.swap(0, 1);
+                }
+            }
+            new_springs.sort_by_key(|sp| (sp.0[1] - sp.0[0], sp.0[0]));
+        }
         self.springs.extend(new_springs);
         self.bodies.push(BodyDesc { kind, gas: 0.0, external_pressure: 0.0, rest_volume: 0.0, aero, anchor: base });
         Ok(BodyHandle { index: body as usize, first_particle: base as usize, particle_count: n, first_triangle })
@@ -648,6 +659,7 @@ impl ModelBuilder {
             body_drag: self.bodies.iter().map(|b| r(b.aero.drag)).collect(),
             body_lift: self.bodies.iter().map(|b| r(b.aero.lift)).collect(),
             body_anchor: self.bodies.iter().map(|b| b.anchor).collect(),
+            spring_runs: SpringRun::detect(&self.springs.iter().map(|s| s.0).collect::<Vec<_>>()),
             particle_springs,
             particle_tris,
             gravity: v(self.gravity),
@@ -719,6 +731,8 @@ pub struct Model<R: Real = f32> {
     pub particle_springs: Csr,
     /// Triangles of each particle.
     pub particle_tris: Csr,
+    /// Maximal runs of consecutive springs whose ends advance together (see [`SpringRun`]); derived.
+    pub spring_runs: Vec<SpringRun>,
     /// Gravity [m/s^2].
     pub gravity: R::V,
     /// Damping form.
@@ -727,6 +741,35 @@ pub struct Model<R: Real = f32> {
     pub wind: Option<WindField>,
     /// Colliders.
     pub colliders: Vec<Collider>,
+}
+
+/// Springs `first + k` for `k < len` with ends `(i + k, j + k)`. Cloth grids consist of a few hundred such runs;
+/// the solver then computes spring forces on contiguous slices, per block of particles, without the per-spring
+/// force buffer and index gather that an irregular mesh needs.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct SpringRun {
+    /// First spring.
+    pub first: u32,
+    /// End 0 of the first spring.
+    pub i: u32,
+    /// End 1 of the first spring.
+    pub j: u32,
+    /// Number of springs.
+    pub len: u32,
+}
+
+impl SpringRun {
+    /// Splits `springs` into maximal runs.
+    pub fn detect(springs: &[[u32; 2]]) -> Vec<SpringRun> {
+        let mut runs: Vec<SpringRun> = Vec::new();
+        for (s, &[i, j]) in springs.iter().enumerate() {
+            match runs.last_mut() {
+                Some(r) if r.i.wrapping_add(r.len) == i && r.j.wrapping_add(r.len) == j => r.len += 1,
+                _ => runs.push(SpringRun { first: s as u32, i, j, len: 1 }),
+            }
+        }
+        runs
+    }
 }
 
 /// Positions and velocities: the only data a step changes.
@@ -863,6 +906,29 @@ impl<R: Real> Model<R> {
             }
         }
         e
+    }
+
+    /// Recomputes the derived adjacency (particle → springs, particle → triangles, spring runs) after the
+    /// spring or triangle arrays were edited by hand.
+    pub fn refresh_derived(&mut self) {
+        let n = self.particle_count();
+        self.particle_springs = Csr::from_pairs(
+            n,
+            self.spring_indices
+                .iter()
+                .enumerate()
+                .flat_map(|(s, ij)| [(ij[0], (s as u32) << 1), (ij[1], ((s as u32) << 1) | 1)]),
+        );
+        self.particle_tris = Csr::from_pairs(
+            n,
+            self.tri_indices.iter().enumerate().flat_map(|(t, tri)| tri.iter().map(move |&v| (v, t as u32))),
+        );
+        self.spring_runs = SpringRun::detect(&self.spring_indices);
+    }
+
+    /// True when the springs form long runs (average ≥ 16), so the run kernel is used.
+    pub fn springs_are_runs(&self) -> bool {
+        !self.spring_runs.is_empty() && self.spring_count() >= 16 * self.spring_runs.len()
     }
 
     /// Connected pieces of the surface (particles joined by springs): `(count, label per particle)`.

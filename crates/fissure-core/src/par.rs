@@ -19,7 +19,9 @@ pub(crate) const PAR_MIN: usize = 4 * CHUNK;
 #[inline]
 pub(crate) fn chunks<T: Send>(data: &mut [T], f: impl Fn(usize, &mut [T]) + Sync + Send) {
     if data.len() < PAR_MIN {
-        f(0, data);
+        // The same fixed chunks as the parallel path: kernels whose order depends on the chunking (the spring-run
+        // kernel) give the same bits either way.
+        data.chunks_mut(CHUNK).enumerate().for_each(|(c, s)| f(c * CHUNK, s));
     } else {
         data.par_chunks_mut(CHUNK).enumerate().for_each(|(c, s)| f(c * CHUNK, s));
     }
@@ -30,7 +32,7 @@ pub(crate) fn chunks<T: Send>(data: &mut [T], f: impl Fn(usize, &mut [T]) + Sync
 pub(crate) fn chunks2<A: Send, B: Send>(a: &mut [A], b: &mut [B], f: impl Fn(usize, &mut [A], &mut [B]) + Sync + Send) {
     debug_assert_eq!(a.len(), b.len());
     if a.len() < PAR_MIN {
-        f(0, a, b);
+        a.chunks_mut(CHUNK).zip(b.chunks_mut(CHUNK)).enumerate().for_each(|(i, (x, y))| f(i * CHUNK, x, y));
     } else {
         a.par_chunks_mut(CHUNK).zip(b.par_chunks_mut(CHUNK)).enumerate().for_each(|(c, (x, y))| f(c * CHUNK, x, y));
     }
@@ -66,12 +68,39 @@ pub(crate) fn chunks4<A: Send, B: Send, C: Send, D: Send>(
     f: impl Fn(usize, &mut [A], &mut [B], &mut [C], &mut [D]) + Sync + Send,
 ) {
     if a.len() < PAR_MIN {
-        f(0, a, b, c, d);
+        a.chunks_mut(CHUNK)
+            .zip(b.chunks_mut(CHUNK))
+            .zip(c.chunks_mut(CHUNK).zip(d.chunks_mut(CHUNK)))
+            .enumerate()
+            .for_each(|(i, ((w, x), (y, z)))| f(i * CHUNK, w, x, y, z));
     } else {
         a.par_chunks_mut(CHUNK)
             .zip(b.par_chunks_mut(CHUNK))
             .zip(c.par_chunks_mut(CHUNK).zip(d.par_chunks_mut(CHUNK)))
             .enumerate()
             .for_each(|(i, ((w, x), (y, z)))| f(i * CHUNK, w, x, y, z));
+    }
+}
+
+/// Like [`chunks`] over three slices of equal length walked together.
+#[inline]
+pub(crate) fn chunks3<A: Send, B: Send, C: Send>(
+    a: &mut [A],
+    b: &mut [B],
+    c: &mut [C],
+    f: impl Fn(usize, &mut [A], &mut [B], &mut [C]) + Sync + Send,
+) {
+    if a.len() < PAR_MIN {
+        a.chunks_mut(CHUNK)
+            .zip(b.chunks_mut(CHUNK))
+            .zip(c.chunks_mut(CHUNK))
+            .enumerate()
+            .for_each(|(i, ((x, y), z))| f(i * CHUNK, x, y, z));
+    } else {
+        a.par_chunks_mut(CHUNK)
+            .zip(b.par_chunks_mut(CHUNK))
+            .zip(c.par_chunks_mut(CHUNK))
+            .enumerate()
+            .for_each(|(i, ((x, y), z))| f(i * CHUNK, x, y, z));
     }
 }

@@ -88,6 +88,8 @@ pub trait Vector3<R>:
     fn length_squared(self) -> R;
     /// Component-wise product.
     fn mul_elem(self, o: Self) -> Self;
+    /// The components.
+    fn to_array(self) -> [R; 3];
     /// Component-wise reciprocal.
     fn recip(self) -> Self;
     /// All components finite.
@@ -164,6 +166,10 @@ macro_rules! impl_real {
             #[inline(always)]
             fn mul_elem(self, o: Self) -> Self {
                 self * o
+            }
+            #[inline(always)]
+            fn to_array(self) -> [$t; 3] {
+                <$v>::to_array(&self)
             }
             #[inline(always)]
             fn recip(self) -> Self {

@@ -15,7 +15,7 @@
 //! For a mesh, `ω` is the largest natural frequency; a Gershgorin bound is `ω² ≤ max_i Σ_s 4 k_s / m_i`.
 
 use crate::error::StepError;
-use crate::forces::{ForceScratch, particle_force};
+use crate::forces::{ForceScratch, particle_force, run_block_dispatch};
 use crate::model::{DampingModel, Model, State};
 use crate::par;
 use crate::real::{Real, Vector3};
@@ -130,6 +130,10 @@ pub struct CpuSolver<R: Real = f32> {
     rk: Rk4Scratch<R>,
     imp: ImplicitScratch<R>,
     sized_for: Option<(usize, usize, usize, usize, Integrator)>,
+    /// Second position/velocity buffers and per-block force sums of the fused symplectic Euler path.
+    q_next: Vec<R::V>,
+    qd_next: Vec<R::V>,
+    f_block: Vec<R::V>,
     timers: StageTimers,
     /// Statistics of the last implicit solve.
     pub cg: CgStats,
@@ -183,6 +187,10 @@ impl<R: Real> CpuSolver<R> {
         self.sized_for = Some(key);
         self.f.resize(m);
         let n = m.particle_count();
+        let fused = self.f.runs && self.config.integrator == Integrator::SymplecticEuler;
+        for v in [&mut self.q_next, &mut self.qd_next, &mut self.f_block] {
+            v.resize(if fused { n } else { 0 }, R::V::ZERO);
+        }
         let z = R::V::ZERO;
         let rk = if self.config.integrator == Integrator::Rk4 { n } else { 0 };
         for v in [&mut self.rk.xt, &mut self.rk.vt, &mut self.rk.ax, &mut self.rk.av] {
@@ -256,6 +264,9 @@ impl<R: Real> CpuSolver<R> {
     }
 
     fn symplectic_euler(&mut self, m: &Model<R>, s: &mut State<R>, dt: R, blown: &AtomicBool) {
+        if self.f.runs {
+            return self.symplectic_euler_runs(m, s, dt, blown);
+        }
         let surface = self.forces(m, &s.particle_q, &s.particle_qd, s.time);
         let t = Instant::now();
         let f = &self.f;
@@ -276,6 +287,59 @@ impl<R: Real> CpuSolver<R> {
             }
         });
         self.timers.add(Stage::Integrate, t);
+    }
+
+    /// Symplectic Euler fused with the spring-run kernel: each block of particles sums its spring forces and
+    /// immediately updates its own particles, writing into the second position/velocity buffers (other blocks
+    /// still read the old positions of their neighbours), which are then swapped with the state's. One pass over
+    /// the particles instead of two.
+    fn symplectic_euler_runs(&mut self, m: &Model<R>, s: &mut State<R>, dt: R, blown: &AtomicBool) {
+        let surface = m.has_pressure() || m.has_wind();
+        if surface {
+            let t = Instant::now();
+            self.f.surface(m, &s.particle_q, &s.particle_qd, s.time);
+            self.timers.add(Stage::Surface, t);
+        }
+        let t = Instant::now();
+        let n = m.particle_count();
+        self.q_next.resize(n, R::V::ZERO);
+        self.qd_next.resize(n, R::V::ZERO);
+        let (q, qd) = (&s.particle_q, &s.particle_qd);
+        let f = &self.f;
+        let projected = m.damping_model == DampingModel::Projected;
+        par::chunks3(&mut self.f_block, &mut self.q_next, &mut self.qd_next, |p0, fs, qs, vs| {
+            if projected {
+                run_block_dispatch::<R, true>(m, q, qd, p0, fs);
+            } else {
+                run_block_dispatch::<R, false>(m, q, qd, p0, fs);
+            }
+            let mut bad = false;
+            for k in 0..fs.len() {
+                let i = p0 + k;
+                let w = m.particle_inv_mass[i];
+                if w == R::ZERO {
+                    qs[k] = q[i];
+                    vs[k] = qd[i];
+                    continue;
+                }
+                let mut force = m.gravity * m.particle_mass[i] + fs[k];
+                if surface {
+                    for &tt in m.particle_tris.row(i) {
+                        force += f.tri_f[tt as usize];
+                    }
+                }
+                let v = qd[i] + force * (w * dt);
+                vs[k] = v;
+                qs[k] = q[i] + v * dt;
+                bad |= !v.is_finite();
+            }
+            if bad {
+                blown.store(true, Ordering::Relaxed);
+            }
+        });
+        std::mem::swap(&mut s.particle_q, &mut self.q_next);
+        std::mem::swap(&mut s.particle_qd, &mut self.qd_next);
+        self.timers.add(Stage::Springs, t);
     }
 
     fn velocity_verlet(&mut self, m: &Model<R>, s: &mut State<R>, dt: R, blown: &AtomicBool) {

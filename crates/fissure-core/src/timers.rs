@@ -7,7 +7,8 @@ use std::time::{Duration, Instant};
 /// The named, ordered stages of a step.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub enum Stage {
-    /// Per-spring forces (seed eqs. 1–2).
+    /// Per-spring forces (seed eqs. 1–2). On cloth grids under symplectic Euler the update of each particle is
+    /// fused into this pass (see `CpuSolver`), and `Integrate` then shows no calls.
     Springs,
     /// Per-triangle pass: volumes, pressure (seed eqs. 6–9) and wind.
     Surface,

@@ -236,7 +236,11 @@ fn analytic_shape_projections_agree_with_parry() {
             assert_eq!(resolved.is_some(), proj.is_inside, "{:?} at {x:?}", c.shape.shape_type());
             if let Some((x_new, _)) = resolved {
                 let expected = pose.transform_point(proj.point);
-                assert!((x_new - expected).length() < 1e-5, "{:?}: {x_new:?} vs parry {expected:?}", c.shape.shape_type());
+                assert!(
+                    (x_new - expected).length() < 1e-5,
+                    "{:?}: {x_new:?} vs parry {expected:?}",
+                    c.shape.shape_type()
+                );
                 checked += 1;
             }
         }
