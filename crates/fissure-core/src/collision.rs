@@ -162,7 +162,7 @@ impl Collider {
     }
 
     /// Everything a step needs to resolve particles against this collider at time `t`, computed once per step.
-    pub fn prepare(&self, t: f64) -> PreparedCollider<'_> {
+    pub fn prepare(&self, t: f64) -> PreparedCollider {
         let pose = self.pose_at(t);
         let shape = if let Some(h) = self.shape.as_halfspace() {
             Analytic::HalfSpace(h.normal)
@@ -175,13 +175,13 @@ impl Collider {
         } else {
             Analytic::General
         };
-        PreparedCollider { collider: self, aabb: self.aabb(&pose), pose, shape }
+        PreparedCollider { aabb: self.aabb(&pose), pose, shape }
     }
 
     /// Resolves one particle at `x` with velocity `v` against this collider at time `t`: the corrected position
     /// and velocity if it was in contact, `None` otherwise. (Steps use [`Collider::prepare`] once instead.)
     pub fn resolve(&self, t: f64, x: Vec3, v: Vec3) -> Option<(Vec3, Vec3)> {
-        self.prepare(t).resolve(x, v)
+        self.prepare(t).resolve(self, x, v)
     }
 
     /// Outward normal of the surface feature nearest to the local point `local`.
@@ -208,19 +208,19 @@ enum Analytic {
     General,
 }
 
-/// A collider with its pose, bounding box and shape kind evaluated for one step.
+/// A collider's pose, bounding box and shape kind evaluated for one step (owned, so a solver keeps a buffer of
+/// them and a step allocates nothing).
 #[derive(Clone, Debug)]
-pub struct PreparedCollider<'a> {
-    collider: &'a Collider,
+pub struct PreparedCollider {
     pose: Pose,
     aabb: Aabb,
     shape: Analytic,
 }
 
-impl PreparedCollider<'_> {
+impl PreparedCollider {
     /// Closest boundary point, whether `p` (local) is inside, and the outward normal there.
     #[inline]
-    fn closest(&self, p: Vec3) -> (Vec3, bool, Vec3) {
+    fn closest(&self, c: &Collider, p: Vec3) -> (Vec3, bool, Vec3) {
         match self.shape {
             Analytic::HalfSpace(n) => {
                 let s = n.dot(p);
@@ -265,7 +265,6 @@ impl PreparedCollider<'_> {
                 (c + n * r, l < r, n)
             }
             Analytic::General => {
-                let c = self.collider;
                 // `solid = false`: interior points project onto the boundary (with `solid = true` parry projects
                 // them onto themselves); `is_inside` still says which side they are on.
                 let proj = c.shape.project_local_point(p, false);
@@ -282,15 +281,14 @@ impl PreparedCollider<'_> {
         }
     }
 
-    /// See [`Collider::resolve`].
+    /// See [`Collider::resolve`]; `c` is the collider this was prepared from.
     #[inline]
-    pub fn resolve(&self, x: Vec3, v: Vec3) -> Option<(Vec3, Vec3)> {
+    pub fn resolve(&self, c: &Collider, x: Vec3, v: Vec3) -> Option<(Vec3, Vec3)> {
         if !self.aabb.contains_local_point(x) {
             return None;
         }
-        let c = self.collider;
         let local = self.pose.inverse_transform_point(x);
-        let (proj, inside, n_local) = self.closest(local);
+        let (proj, inside, n_local) = self.closest(c, local);
         if !inside && (local - proj).length_squared() >= c.margin * c.margin {
             return None;
         }

@@ -134,6 +134,8 @@ pub struct CpuSolver<R: Real = f32> {
     q_next: Vec<R::V>,
     qd_next: Vec<R::V>,
     f_block: Vec<R::V>,
+    /// Colliders prepared for the current step (reused).
+    colliders: Vec<crate::collision::PreparedCollider>,
     timers: StageTimers,
     /// Statistics of the last implicit solve.
     pub cg: CgStats,
@@ -230,7 +232,9 @@ impl<R: Real> CpuSolver<R> {
             return;
         }
         let t0 = Instant::now();
-        let prepared: Vec<_> = m.colliders.iter().map(|c| c.prepare(state.time)).collect();
+        self.colliders.clear();
+        self.colliders.extend(m.colliders.iter().map(|c| c.prepare(state.time)));
+        let prepared = &self.colliders;
         let inv_mass = &m.particle_inv_mass;
         par::chunks2(&mut state.particle_q, &mut state.particle_qd, |start, qs, vs| {
             for k in 0..qs.len() {
@@ -242,8 +246,8 @@ impl<R: Real> CpuSolver<R> {
                 // A push out of one collider can land in another (a corner): sweep until clear, at most 3 times.
                 for _sweep in 0..3 {
                     let mut any = false;
-                    for c in &prepared {
-                        if let Some((x2, v2)) = c.resolve(x, v) {
+                    for (p, c) in prepared.iter().zip(&m.colliders) {
+                        if let Some((x2, v2)) = p.resolve(c, x, v) {
                             x = x2;
                             v = v2;
                             any = true;

@@ -1,0 +1,120 @@
+//! Wind physics, and "a scene pays only for what it uses": absent terms are never entered (stage timers).
+
+use fissure_core::glam::DVec3;
+use fissure_core::*;
+
+fn sheet(wind: Option<WindField>, velocity: DVec3) -> (Model<f64>, State<f64>) {
+    let mut b = ModelBuilder::new();
+    b.gravity(DVec3::ZERO);
+    let opts = ClothOptions { mass: Mass::PerParticle(1e-3), ..Default::default() };
+    // A sheet in the XY plane: its normal is z.
+    b.add_cloth_grid(8, 8, 0.05, |p| p, &opts).unwrap();
+    if let Some(w) = wind {
+        b.wind(w);
+    }
+    let model: Model<f64> = b.finalize().unwrap();
+    let mut s = model.state();
+    s.particle_qd.iter_mut().for_each(|v| *v = velocity);
+    (model, s)
+}
+
+fn net_force(model: &Model<f64>, s: &State<f64>) -> DVec3 {
+    let mut f = vec![DVec3::ZERO; model.particle_count()];
+    CpuSolver::<f64>::default().compute_forces(model, s, &mut f).unwrap();
+    f.iter().copied().sum()
+}
+
+#[test]
+fn face_on_wind_pushes_with_the_drag_formula() {
+    // Steady 5 m/s face-on wind, sheet at rest: drag ½ ρ C_D A |n·v| v, no lift (n ∥ v).
+    let u = 5.0;
+    let (model, s) = sheet(Some(WindField::steady(DVec3::new(0.0, 0.0, u))), DVec3::ZERO);
+    let f = net_force(&model, &s);
+    let area = 0.35 * 0.35;
+    let expected = 0.5 * 1.225 * 1.0 * area * u * u;
+    assert!((f.z - expected).abs() < 1e-9 * expected, "drag {} N vs ½ρC_D A u² = {expected} N", f.z);
+    assert!(f.x.abs() < 1e-12 && f.y.abs() < 1e-12, "no sideways force face-on: {f:?}");
+}
+
+#[test]
+fn edge_on_wind_and_co_moving_sheet_feel_nothing() {
+    let (model, s) = sheet(Some(WindField::steady(DVec3::new(4.0, 0.0, 0.0))), DVec3::ZERO);
+    assert!(net_force(&model, &s).length() < 1e-12, "wind along the sheet's plane");
+    let w = DVec3::new(1.0, -2.0, 3.0);
+    let (model, s) = sheet(Some(WindField::steady(w)), w);
+    assert!(net_force(&model, &s).length() < 1e-12, "sheet moving with the air");
+}
+
+#[test]
+fn oblique_wind_gives_lift_across_the_flow() {
+    // Wind at 45° to the sheet: the force has a component perpendicular to the flow (lift), magnitude
+    // ½ ρ C_L A (n·v)|v| sin θ = ½ ρ C_L A u² / 2 at 45°.
+    let u = 4.0;
+    let dir = DVec3::new(1.0, 0.0, 1.0).normalize();
+    let (model, s) = sheet(Some(WindField::steady(dir * u)), DVec3::ZERO);
+    let f = net_force(&model, &s);
+    let across = f - dir * f.dot(dir);
+    let area = 0.35 * 0.35;
+    let expected_lift = 0.5 * 1.225 * 0.5 * area * u * u * 0.5;
+    assert!((across.length() - expected_lift).abs() < 1e-9, "lift {} N vs {expected_lift} N", across.length());
+}
+
+#[test]
+fn gusty_wind_varies_in_space_and_time() {
+    let w = WindField::default();
+    let a = w.sample(DVec3::ZERO, 0.0);
+    assert_ne!(a, w.sample(DVec3::ZERO, 0.7));
+    assert_ne!(a, w.sample(DVec3::new(1.3, 0.0, 0.0), 0.0));
+    assert_eq!(w.sample(DVec3::new(0.2, 1.0, 0.3), 1.5), w.sample(DVec3::new(0.2, 1.0, 0.3), 1.5));
+    // Mean over a long time is the mean wind.
+    let mean: DVec3 = (0..20000).map(|k| w.sample(DVec3::ZERO, k as f64 * 0.01)).sum::<DVec3>() / 20000.0;
+    assert!((mean - w.velocity).length() < 0.05 * w.velocity.length(), "mean wind {mean:?}");
+}
+
+#[test]
+fn absent_terms_are_never_entered() {
+    let cases: [(&str, bool, bool, bool); 4] = [
+        ("bare cloth", false, false, false),
+        ("wind", true, false, false),
+        ("gas", false, true, false),
+        ("colliders", false, false, true),
+    ];
+    for (name, wind, gas, colliders) in cases {
+        let mut b = ModelBuilder::new();
+        b.add_cloth_grid(8, 8, 0.05, |p| p, &ClothOptions { aero: Aero::default(), ..Default::default() }).unwrap();
+        if wind {
+            b.wind(WindField::default());
+        }
+        if gas {
+            b.add_soft_body(
+                &Mesh::icosphere(0.1, 1).translated(DVec3::new(0.0, 1.0, 0.0)),
+                &SoftBodyOptions::default(),
+            )
+            .unwrap();
+        } else {
+            b.add_soft_body(
+                &Mesh::icosphere(0.1, 1).translated(DVec3::new(0.0, 1.0, 0.0)),
+                &SoftBodyOptions { gas: Gas::None, ..Default::default() },
+            )
+            .unwrap();
+        }
+        if colliders {
+            b.add_collider(Collider::ground(-5.0));
+        }
+        let model: Model<f32> = b.finalize().unwrap();
+        assert_eq!(model.has_wind(), wind, "{name}");
+        assert_eq!(model.has_pressure(), gas, "{name}");
+        let mut s = model.state();
+        let mut solver = CpuSolver::<f32>::default();
+        for _ in 0..10 {
+            solver.step(&model, &mut s, 1e-4).unwrap();
+        }
+        let t = solver.timers();
+        assert_eq!(t.calls(Stage::Surface) > 0, wind || gas, "{name}: surface pass");
+        assert_eq!(t.calls(Stage::Collide) > 0, colliders, "{name}: collision pass");
+        assert_eq!(t.calls(Stage::Solve), 0, "{name}: no linear solve under symplectic Euler");
+        if !(wind || gas) {
+            assert_eq!(t.time(Stage::Surface), std::time::Duration::ZERO);
+        }
+    }
+}
