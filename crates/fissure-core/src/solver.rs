@@ -305,9 +305,7 @@ impl<R: Real> CpuSolver<R> {
             self.timers.add(Stage::Surface, t);
         }
         let t = Instant::now();
-        let n = m.particle_count();
-        self.q_next.resize(n, R::V::ZERO);
-        self.qd_next.resize(n, R::V::ZERO);
+        // Buffers sized by `ensure_sized`.
         let (q, qd) = (&s.particle_q, &s.particle_qd);
         let f = &self.f;
         let projected = m.damping_model == DampingModel::Projected;
