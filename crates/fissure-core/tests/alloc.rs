@@ -39,8 +39,14 @@ fn steps_do_not_allocate() {
         &SoftBodyOptions { aero: Aero::default(), ..Default::default() },
     )
     .unwrap();
-    b.add_cloth_grid(20, 20, 0.02, |p| DVec3::new(p.x, 1.0, p.y), &ClothOptions { pins: vec![0, 19], ..Default::default() })
-        .unwrap();
+    b.add_cloth_grid(
+        20,
+        20,
+        0.02,
+        |p| DVec3::new(p.x, 1.0, p.y),
+        &ClothOptions { pins: vec![0, 19], ..Default::default() },
+    )
+    .unwrap();
     b.wind(WindField::default());
     b.add_collider(Collider::ground(0.0));
     b.add_collider(Collider::ball(Vec3::new(0.0, 0.2, 0.0), 0.1));
