@@ -1,0 +1,220 @@
+"""Type stubs of the compiled module (checked by `python -m mypy.stubtest fissure._fissure`)."""
+
+import os
+from typing import Any, ClassVar, Sequence, final
+
+import numpy as np
+import numpy.typing as npt
+
+__version__: str
+__all__ = ["DampingModel", "Integrator", "Mesh", "Model", "ModelBuilder", "Solver", "State", "World", "__version__"]
+
+_Vec3 = tuple[float, float, float]
+
+@final
+class Integrator:
+    """The time integrators (a closed set; compare with ==, convert with int())."""
+
+    SYMPLECTIC_EULER: ClassVar[Integrator]
+    VELOCITY_VERLET: ClassVar[Integrator]
+    RK4: ClassVar[Integrator]
+    IMPLICIT_EULER: ClassVar[Integrator]
+    @property
+    def order(self) -> int: ...
+    def __int__(self) -> int: ...
+
+@final
+class DampingModel:
+    """The two damping forms of the seed's eq. (2)."""
+
+    PROJECTED: ClassVar[DampingModel]
+    UNPROJECTED: ClassVar[DampingModel]
+    def __int__(self) -> int: ...
+
+@final
+class Mesh:
+    def __new__(cls, positions: npt.ArrayLike, triangles: npt.ArrayLike) -> Mesh: ...
+    @staticmethod
+    def icosphere(radius: float, subdivisions: int) -> Mesh: ...
+    @staticmethod
+    def grid(nx: int, ny: int, spacing: float) -> Mesh: ...
+    @staticmethod
+    def cuboid(half_extents: _Vec3, n: int = 1) -> Mesh: ...
+    @staticmethod
+    def load_obj(path: str | os.PathLike[str], *, weld_tolerance: float | None = None) -> Mesh: ...
+    def save_obj(self, path: str | os.PathLike[str]) -> None: ...
+    def save_ply(self, path: str | os.PathLike[str]) -> None: ...
+    def translated(self, offset: _Vec3) -> Mesh: ...
+    @property
+    def positions(self) -> npt.NDArray[np.float64]: ...
+    @property
+    def triangles(self) -> npt.NDArray[np.uint32]: ...
+    @property
+    def vertex_count(self) -> int: ...
+    @property
+    def triangle_count(self) -> int: ...
+    def is_closed(self) -> bool: ...
+    def signed_volume(self) -> float: ...
+    def area(self) -> float: ...
+
+@final
+class ModelBuilder:
+    def __new__(cls, *, gravity: _Vec3 = ..., damping_model: DampingModel = ...) -> ModelBuilder: ...
+    def add_particle(self, position: _Vec3, velocity: _Vec3 = ..., *, mass: float) -> int: ...
+    def add_spring(self, i: int, j: int, *, stiffness: float, damping: float = 0.0) -> int: ...
+    def add_soft_body(
+        self,
+        mesh: Mesh,
+        *,
+        mass: float | None = None,
+        area_density: float | None = None,
+        particle_mass: float | None = None,
+        stiffness: float | None = None,
+        spring_stiffness: float | None = None,
+        damping_ratio: float | None = None,
+        spring_damping: float | None = None,
+        bending: float | None = None,
+        pressure: float | None = None,
+        gas_amount: float | None = None,
+        external_pressure: float = 0.0,
+        velocity: _Vec3 = ...,
+        drag: float = 0.0,
+        lift: float = 0.0,
+        reorient: bool = True,
+    ) -> dict[str, int]: ...
+    def add_cloth(
+        self,
+        mesh: Mesh,
+        *,
+        mass: float | None = None,
+        area_density: float | None = None,
+        particle_mass: float | None = None,
+        stiffness: float | None = None,
+        spring_stiffness: float | None = None,
+        bending: float | None = None,
+        damping_ratio: float | None = None,
+        spring_damping: float | None = None,
+        pins: Sequence[int] = ...,
+        drag: float = 1.0,
+        lift: float = 0.5,
+    ) -> dict[str, int]: ...
+    def add_cloth_grid(
+        self,
+        nx: int,
+        ny: int,
+        spacing: float,
+        *,
+        origin: _Vec3 = ...,
+        down: _Vec3 = ...,
+        mass: float | None = None,
+        area_density: float | None = None,
+        particle_mass: float | None = None,
+        spring_stiffness: float = 1000.0,
+        shear: float = 1000.0,
+        bending: float = 1000.0,
+        damping_ratio: float | None = None,
+        spring_damping: float | None = None,
+        pins: Sequence[int] = ...,
+        drag: float = 1.0,
+        lift: float = 0.5,
+    ) -> dict[str, int]: ...
+    def add_ground(
+        self, height: float = 0.0, *, restitution: float = 0.3, friction: float = 0.4, margin: float = 0.0
+    ) -> None: ...
+    def add_plane(
+        self, point: _Vec3, normal: _Vec3, *, restitution: float = 0.3, friction: float = 0.4, margin: float = 0.0
+    ) -> None: ...
+    def add_ball(
+        self,
+        center: _Vec3,
+        radius: float,
+        *,
+        velocity: _Vec3 = ...,
+        restitution: float = 0.3,
+        friction: float = 0.4,
+        margin: float = 0.0,
+    ) -> None: ...
+    def add_cuboid(
+        self, center: _Vec3, half_extents: _Vec3, *, restitution: float = 0.3, friction: float = 0.4, margin: float = 0.0
+    ) -> None: ...
+    def add_capsule(
+        self, a: _Vec3, b: _Vec3, radius: float, *, restitution: float = 0.3, friction: float = 0.4, margin: float = 0.0
+    ) -> None: ...
+    def add_mesh_collider(
+        self, mesh: Mesh, *, restitution: float = 0.3, friction: float = 0.4, margin: float = 0.0
+    ) -> None: ...
+    def set_wind(
+        self,
+        velocity: _Vec3,
+        *,
+        gust_amplitude: float = 0.5,
+        gust_frequency: float = 0.5,
+        gust_wavelength: float = 4.0,
+        crosswind: float = 0.2,
+        air_density: float = 1.225,
+    ) -> None: ...
+    @property
+    def particle_count(self) -> int: ...
+    def finalize(self) -> Model: ...
+
+@final
+class Model:
+    def state(self) -> State: ...
+    @property
+    def particle_count(self) -> int: ...
+    @property
+    def spring_count(self) -> int: ...
+    @property
+    def tri_count(self) -> int: ...
+    @property
+    def body_count(self) -> int: ...
+    @property
+    def triangles(self) -> npt.NDArray[np.uint32]: ...
+    @property
+    def springs(self) -> npt.NDArray[np.uint32]: ...
+    def total_mass(self) -> float: ...
+    def body_volumes(self, state: State) -> list[float]: ...
+    def body_pressures(self, state: State) -> list[float]: ...
+    def momentum(self, state: State) -> _Vec3: ...
+    def center_of_mass(self, state: State) -> _Vec3: ...
+    def energy(self, state: State) -> dict[str, float]: ...
+
+@final
+class State:
+    @property
+    def positions(self) -> npt.NDArray[np.float32]: ...
+    @positions.setter
+    def positions(self, value: npt.ArrayLike) -> None: ...
+    @property
+    def velocities(self) -> npt.NDArray[np.float32]: ...
+    @velocities.setter
+    def velocities(self, value: npt.ArrayLike) -> None: ...
+    @property
+    def time(self) -> float: ...
+    @property
+    def particle_count(self) -> int: ...
+    def copy_positions_into(self, out: npt.NDArray[np.float32]) -> None: ...
+    def copy_velocities_into(self, out: npt.NDArray[np.float32]) -> None: ...
+    def copy(self) -> State: ...
+
+@final
+class Solver:
+    def __new__(cls, *, integrator: Integrator = ..., cg_tolerance: float = 1e-5, cg_max_iterations: int = 200
+    ) -> Solver: ...
+    def step(self, model: Model, state: State, dt: float, steps: int = 1) -> None: ...
+    def timers(self) -> dict[str, Any]: ...
+
+@final
+class World:
+    def __new__(cls, model: Model, *, integrator: Integrator = ..., cg_tolerance: float = 1e-5, cg_max_iterations: int = 200
+    ) -> World: ...
+    @property
+    def model(self) -> Model: ...
+    @property
+    def state(self) -> State: ...
+    @property
+    def solver(self) -> Solver: ...
+    @property
+    def time(self) -> float: ...
+    def step(self, dt: float, steps: int = 1) -> None: ...
+    def advance(self, duration: float, dt: float) -> None: ...
