@@ -4,29 +4,13 @@
 //! Run: `cargo bench --bench cloth`. `FISSURE_BENCH_QUICK=1` shrinks the grid to 32 × 32 so CI can run it fast.
 
 use criterion::{Criterion, criterion_group, criterion_main};
-use fissure::glam::DVec3;
 use fissure::*;
 use std::hint::black_box;
 use std::time::Instant;
 
-fn cloth(n: usize) -> Model<f32> {
-    let mut b = ModelBuilder::new();
-    let opts = ClothOptions {
-        mass: Mass::PerParticle(1e-3),
-        stiffness: Stiffness::PerSpring(1000.0),
-        shear: Some(Stiffness::PerSpring(1000.0)),
-        bending: Some(Stiffness::PerSpring(1000.0)),
-        damping: Damping::PerSpring(0.01),
-        pins: vec![0, n - 1],
-        aero: Aero::NONE,
-    };
-    b.add_cloth_grid(n, n, 0.01, |p| DVec3::new(p.x, 1.0, p.y), &opts).unwrap();
-    b.finalize().unwrap()
-}
-
 fn bench(c: &mut Criterion) {
     let n = if std::env::var_os("FISSURE_BENCH_QUICK").is_some() { 32 } else { 128 };
-    let model = cloth(n);
+    let model: Model<f32> = fissure::scenes::benchmark_cloth(n).unwrap().finalize().unwrap();
     let mut state = model.state();
     let mut solver = CpuSolver::<f32>::default();
     let dt = 2e-4;

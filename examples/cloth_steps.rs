@@ -5,24 +5,11 @@
 //! cargo run --release --example cloth_steps
 //! ```
 
-use fissure::glam::DVec3;
 use fissure::*;
 use std::time::Instant;
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
-    let n = 128;
-    let mut b = ModelBuilder::new();
-    let opts = ClothOptions {
-        mass: Mass::PerParticle(1e-3),
-        stiffness: Stiffness::PerSpring(1000.0),
-        shear: Some(Stiffness::PerSpring(1000.0)),
-        bending: Some(Stiffness::PerSpring(1000.0)),
-        damping: Damping::PerSpring(0.01),
-        pins: vec![0, n - 1],
-        aero: Aero::NONE,
-    };
-    b.add_cloth_grid(n, n, 0.01, |p| DVec3::new(p.x, 1.0, p.y), &opts)?;
-    let model: Model<f32> = b.finalize()?;
+    let model: Model<f32> = fissure::scenes::benchmark_cloth(128)?.finalize()?;
     let mut state = model.state();
     let mut solver = CpuSolver::<f32>::default();
     for _ in 0..200 {

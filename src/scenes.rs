@@ -81,3 +81,20 @@ pub fn cloth_wind(n: usize) -> Result<ModelBuilder, ModelError> {
     b.add_collider(Collider::ground(0.0));
     Ok(b)
 }
+
+/// The foundation benchmark's cloth: `n × n` particles, spacing 1 cm, 1 g each, structural + shear + bend springs
+/// of 1000 N/m (97,026 for n = 128), damping 0.01 N·s/m, two corners pinned, horizontal at y = 1, no wind.
+pub fn benchmark_cloth(n: usize) -> Result<ModelBuilder, ModelError> {
+    let mut b = ModelBuilder::new();
+    let opts = ClothOptions {
+        mass: Mass::PerParticle(1e-3),
+        stiffness: Stiffness::PerSpring(1000.0),
+        shear: Some(Stiffness::PerSpring(1000.0)),
+        bending: Some(Stiffness::PerSpring(1000.0)),
+        damping: Damping::PerSpring(0.01),
+        pins: vec![0, n - 1],
+        aero: Aero::NONE,
+    };
+    b.add_cloth_grid(n, n, 0.01, |p| DVec3::new(p.x, 1.0, p.y), &opts)?;
+    Ok(b)
+}
