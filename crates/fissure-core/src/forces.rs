@@ -35,9 +35,12 @@ pub(crate) struct ForceScratch<R: Real> {
 }
 
 impl<R: Real> ForceScratch<R> {
-    pub fn resize(&mut self, m: &Model<R>) {
-        self.spring_f.resize(m.spring_count(), R::V::ZERO);
+    /// Sizes the buffers for `m`. `spring_buffer`: the per-spring buffer is needed even with the run kernel
+    /// (the implicit solver reuses it for its matrix products).
+    pub fn resize(&mut self, m: &Model<R>, spring_buffer: bool) {
         self.runs = m.springs_are_runs();
+        let ns = if spring_buffer || !self.runs { m.spring_count() } else { 0 };
+        self.spring_f.resize(ns, R::V::ZERO);
         self.particle_spring.resize(if self.runs { m.particle_count() } else { 0 }, R::V::ZERO);
         let surface = m.has_pressure() || m.has_wind();
         let nt = if surface { m.tri_count() } else { 0 };

@@ -187,7 +187,7 @@ impl<R: Real> CpuSolver<R> {
             return;
         }
         self.sized_for = Some(key);
-        self.f.resize(m);
+        self.f.resize(m, self.config.integrator == Integrator::ImplicitEuler);
         let n = m.particle_count();
         let fused = self.f.runs && self.config.integrator == Integrator::SymplecticEuler;
         for v in [&mut self.q_next, &mut self.qd_next, &mut self.f_block] {
