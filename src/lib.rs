@@ -32,7 +32,7 @@ pub mod scenes;
 #[doc = include_str!("../README.md")]
 struct ReadmeDoctests;
 
-/// A model, its state and a CPU solver, stepped together.
+/// A model, its state, a CPU solver and the fracture pass, stepped together.
 pub struct World<R: Real = f32> {
     /// The model (read-only during a step; parameters may be changed between steps).
     pub model: Model<R>,
@@ -40,18 +40,39 @@ pub struct World<R: Real = f32> {
     pub state: State<R>,
     /// The solver.
     pub solver: CpuSolver<R>,
+    /// The fracture pass (does nothing unless the model has something breakable or a punctured gas body).
+    pub fracture: Fracture<R>,
+    /// Every fracture event so far, in order.
+    pub events: Vec<FractureEvent>,
 }
 
 impl<R: Real> World<R> {
-    /// A world at the model's initial state.
+    /// A world at the model's initial state with the default fracture settings.
     pub fn new(model: Model<R>, config: SolverConfig) -> Self {
         let state = model.state();
-        World { model, state, solver: CpuSolver::new(config) }
+        World { model, state, solver: CpuSolver::new(config), fracture: Fracture::default(), events: Vec::new() }
     }
 
-    /// One step of `dt` [s].
-    pub fn step(&mut self, dt: f64) -> Result<(), StepError> {
-        self.solver.step(&self.model, &mut self.state, dt)
+    /// Replaces the fracture settings.
+    pub fn with_fracture(mut self, config: FractureConfig) -> Self {
+        self.fracture.config = config;
+        self
+    }
+
+    /// One step of `dt` [s]: the solver's step, then the fracture pass (seed steps 4 and 5). Returns how many
+    /// fracture events the step produced (they are appended to [`World::events`]).
+    pub fn step(&mut self, dt: f64) -> Result<usize, StepError> {
+        self.solver.step(&self.model, &mut self.state, dt)?;
+        if !self.fracture.needed(&self.model) {
+            return Ok(0);
+        }
+        let new = self.fracture.apply(&mut self.model, &mut self.state, dt);
+        if !self.fracture.last_delta().is_empty() || !new.is_empty() {
+            self.solver.notify_model_changed(&self.model);
+        }
+        let k = new.len();
+        self.events.extend(new);
+        Ok(k)
     }
 
     /// Advances by `duration` [s] in steps of at most `dt` [s] (the last one shortened to land exactly).
@@ -67,8 +88,16 @@ impl<R: Real> World<R> {
         Ok(())
     }
 
-    /// Per-stage timers of the solver.
-    pub fn timers(&self) -> &StageTimers {
-        self.solver.timers()
+    /// Per-stage timers of the solver and the fracture pass.
+    pub fn timers(&self) -> StageTimers {
+        let mut t = self.solver.timers().clone();
+        t.merge_stages(self.fracture.timers());
+        t
+    }
+
+    /// Clears the timers.
+    pub fn reset_timers(&mut self) {
+        self.solver.reset_timers();
+        self.fracture.reset_timers();
     }
 }

@@ -74,6 +74,7 @@ pub fn cloth_wind(n: usize) -> Result<ModelBuilder, ModelError> {
         damping: Damping::Ratio(0.2),
         pins: vec![0, n - 1],
         aero: Aero::default(),
+        fracture: None,
     };
     // Vertical sheet in the XY plane, top edge at y = 1.5, facing the wind along +z.
     b.add_cloth_grid(n, n, spacing, |q| DVec3::new(q.x - 0.5, 1.5 + q.y, 0.0), &opts)?;
@@ -94,6 +95,7 @@ pub fn benchmark_cloth(n: usize) -> Result<ModelBuilder, ModelError> {
         damping: Damping::PerSpring(0.01),
         pins: vec![0, n - 1],
         aero: Aero::NONE,
+        fracture: None,
     };
     b.add_cloth_grid(n, n, 0.01, |p| DVec3::new(p.x, 1.0, p.y), &opts)?;
     Ok(b)

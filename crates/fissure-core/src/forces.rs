@@ -32,6 +32,12 @@ pub(crate) struct ForceScratch<R: Real> {
     pub body_volume: Vec<R>,
     /// Net pressure of each body [Pa].
     pub body_pressure: Vec<R>,
+    /// `∂V/∂x` of the caps over the openings of gas bodies, per particle (empty without such openings) [m^2].
+    pub cap_g: Vec<R::V>,
+    /// Pressure force through the caps, per particle [N].
+    pub cap_f: Vec<R::V>,
+    /// Particles with a nonzero entry in `cap_g` / `cap_f`.
+    pub cap_touched: Vec<u32>,
 }
 
 impl<R: Real> ForceScratch<R> {
@@ -49,6 +55,52 @@ impl<R: Real> ForceScratch<R> {
         self.body_volume.resize(m.body_count(), R::ZERO);
         self.body_pressure.resize(m.body_count(), R::ZERO);
         self.vol_partials.resize(nt.div_ceil(par::CHUNK).max(1) * m.body_count(), R::ZERO);
+        let caps = m.has_pressure() && m.openings.iter().any(|o| m.body_gas_amount[o.body as usize] > R::ZERO);
+        let nc = if caps { m.particle_count() } else { 0 };
+        // Entries from an earlier model may be stale: clear what was written, then size.
+        for &i in &self.cap_touched {
+            if let (Some(g), Some(f)) = (self.cap_g.get_mut(i as usize), self.cap_f.get_mut(i as usize)) {
+                *g = R::V::ZERO;
+                *f = R::V::ZERO;
+            }
+        }
+        self.cap_touched.clear();
+        self.cap_g.resize(nc, R::V::ZERO);
+        self.cap_f.resize(nc, R::V::ZERO);
+    }
+
+    /// Adds the caps over the openings of gas bodies: their volume to `body_volume` (as `6 V`, before the
+    /// division) and their `∂V/∂x` to `cap_g`. A cap is the fan `(x_j, x_i, c)` over each loop edge `i -> j`
+    /// from the loop's centroid `c`; `c`'s share of the gradient goes equally to the loop's particles.
+    fn caps(&mut self, m: &Model<R>, q: &[R::V], vol6: &mut [R]) {
+        for &i in &self.cap_touched {
+            self.cap_g[i as usize] = R::V::ZERO;
+        }
+        self.cap_touched.clear();
+        let sixth = R::from_f64(1.0 / 6.0);
+        for o in &m.openings {
+            let b = o.body as usize;
+            if m.body_gas_amount[b] <= R::ZERO {
+                continue;
+            }
+            let anchor = q[m.body_anchor[b] as usize];
+            let n = o.vertices.len();
+            let inv_n = R::ONE / R::from_f64(n as f64);
+            let centre = o.vertices.iter().fold(R::V::ZERO, |acc, &i| acc + q[i as usize]) * inv_n;
+            let mut centre_g = R::V::ZERO;
+            for k in 0..n {
+                let (i, j) = (o.vertices[k] as usize, o.vertices[(k + 1) % n] as usize);
+                vol6[b] += (q[j] - anchor).dot((q[i] - anchor).cross(centre - anchor));
+                let g = (q[i] - q[j]).cross(centre - q[j]) * sixth;
+                self.cap_g[i] += g;
+                self.cap_g[j] += g;
+                centre_g += g;
+            }
+            for &i in &o.vertices {
+                self.cap_g[i as usize] += centre_g * inv_n;
+                self.cap_touched.push(i);
+            }
+        }
     }
 
     /// Spring forces: per particle into `particle_spring` (runs), else per spring into `spring_f`.
@@ -99,7 +151,15 @@ impl<R: Real> ForceScratch<R> {
         }
         let sixth = R::from_f64(1.0 / 6.0);
         for b in 0..nb {
-            let v = (0..partial_rows).fold(R::ZERO, |acc, r| acc + vp[r * nb + b]) * sixth;
+            self.body_volume[b] = (0..partial_rows).fold(R::ZERO, |acc, r| acc + vp[r * nb + b]);
+        }
+        if !self.cap_g.is_empty() {
+            let mut vol6 = std::mem::take(&mut self.body_volume);
+            self.caps(m, q, &mut vol6);
+            self.body_volume = vol6;
+        }
+        for b in 0..nb {
+            let v = self.body_volume[b] * sixth;
             self.body_volume[b] = v;
             let gas = m.body_gas_amount[b];
             self.body_pressure[b] = if gas > R::ZERO {
@@ -108,6 +168,10 @@ impl<R: Real> ForceScratch<R> {
             } else {
                 R::ZERO
             };
+        }
+        for &i in &self.cap_touched {
+            let i = i as usize;
+            self.cap_f[i] = self.cap_g[i] * self.body_pressure[m.particle_body[i] as usize];
         }
         // Pass B: per-corner force of each triangle.
         let wind = if m.has_wind() { m.wind.as_ref() } else { None };
@@ -363,6 +427,9 @@ pub(crate) fn particle_force<R: Real>(m: &Model<R>, s: &ForceScratch<R>, surface
     if surface {
         for &t in m.particle_tris.row(i) {
             f += s.tri_f[t as usize];
+        }
+        if !s.cap_f.is_empty() {
+            f += s.cap_f[i];
         }
     }
     f

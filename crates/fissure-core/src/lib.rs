@@ -8,6 +8,7 @@ pub mod collision;
 pub mod csr;
 pub mod error;
 mod forces;
+pub mod fracture;
 pub mod mesh;
 pub mod model;
 mod par;
@@ -19,11 +20,12 @@ pub mod wind;
 
 pub use collision::Collider;
 pub use error::{MeshError, ModelError, StepError};
+pub use fracture::{Fracture, FractureConfig, FractureEvent, FractureKind, TopologyDelta, Trigger, check_invariants};
 pub use glam;
 pub use mesh::Mesh;
 pub use model::{
-    BodyHandle, BodyKind, ClothOptions, Damping, DampingModel, Energy, Gas, Mass, Model, ModelBuilder, SoftBodyOptions,
-    SpringKind, SpringRun, State, Stiffness,
+    BodyHandle, BodyKind, Breakable, ClothOptions, Damping, DampingModel, Energy, Gas, Mass, Model, ModelBuilder,
+    Opening, SoftBodyOptions, SpringKind, SpringRun, State, Stiffness,
 };
 pub use parry3d;
 pub use real::{Real, Vector3};

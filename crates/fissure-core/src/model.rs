@@ -77,6 +77,50 @@ pub enum SpringKind {
     Shear,
     /// A bending spring: across two triangles, or skipping a vertex on a grid.
     Bend,
+    /// A spring that broke: it keeps its slot (so indices and cloth spring runs stay valid) with zero stiffness
+    /// and damping, and is in no particle's spring list.
+    Broken,
+}
+
+/// How a body breaks (see the `fracture` module). Limits of `f64::INFINITY` switch a mode off.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Breakable {
+    /// Strain `(l - L0) / L0` past which a spring breaks (spring mode). Default infinity (off).
+    pub strain_limit: f64,
+    /// Load [N] past which a vertex breaks out as a core block (core mode): the magnitude of the net elastic
+    /// force (springs and gas) on it. Default infinity (off).
+    pub load_limit: f64,
+    /// Keep the gas in when the body is punctured (its volume is still taken with caps over the openings).
+    /// Default false: gas leaks through the openings.
+    pub sealed: bool,
+}
+
+impl Default for Breakable {
+    fn default() -> Self {
+        Breakable { strain_limit: f64::INFINITY, load_limit: f64::INFINITY, sealed: false }
+    }
+}
+
+impl Breakable {
+    fn check(&self) -> Result<(), ModelError> {
+        for (name, v) in [("fracture.strain_limit", self.strain_limit), ("fracture.load_limit", self.load_limit)] {
+            if v.is_nan() || v <= 0.0 {
+                return Err(ModelError::Parameter { name, value: v, expected: "> 0 (infinity: off)" });
+            }
+        }
+        Ok(())
+    }
+}
+
+/// An opening of a gas body: a boundary loop of its surface, in the direction its faces traverse it. The body's
+/// volume is taken with a virtual cap over it (a fan from the loop's centroid), so the volume does not depend on
+/// the origin, and its gas leaks out through it (see the `fracture` module).
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct Opening {
+    /// The body.
+    pub body: u32,
+    /// The loop's particles.
+    pub vertices: Vec<u32>,
 }
 
 /// What a body is.
@@ -109,6 +153,8 @@ pub struct SoftBodyOptions {
     pub reorient: bool,
     /// Initial velocity [m/s]. Default 0.
     pub velocity: DVec3,
+    /// How the body breaks. Default `None`: it never does.
+    pub fracture: Option<Breakable>,
 }
 
 impl Default for SoftBodyOptions {
@@ -123,6 +169,7 @@ impl Default for SoftBodyOptions {
             aero: Aero::NONE,
             reorient: true,
             velocity: DVec3::ZERO,
+            fracture: None,
         }
     }
 }
@@ -144,6 +191,8 @@ pub struct ClothOptions {
     pub pins: Vec<usize>,
     /// Aerodynamic coefficients. Default `Aero::default()`.
     pub aero: Aero,
+    /// How the cloth tears. Default `None`: it never does.
+    pub fracture: Option<Breakable>,
 }
 
 impl Default for ClothOptions {
@@ -156,6 +205,7 @@ impl Default for ClothOptions {
             damping: Damping::PerSpring(0.1),
             pins: Vec::new(),
             aero: Aero::default(),
+            fracture: None,
         }
     }
 }
@@ -206,6 +256,7 @@ struct BodyDesc {
     rest_volume: f64,
     aero: Aero,
     anchor: u32,
+    fracture: Option<Breakable>,
 }
 
 impl Default for ModelBuilder {
@@ -365,6 +416,7 @@ impl ModelBuilder {
             &[],
             opts.aero,
             None,
+            opts.fracture,
         )?;
         let b = &mut self.bodies[h.index];
         b.gas = nrt;
@@ -394,6 +446,7 @@ impl ModelBuilder {
             &opts.pins,
             opts.aero,
             None,
+            opts.fracture,
         )
     }
 
@@ -432,6 +485,7 @@ impl ModelBuilder {
             &opts.pins,
             opts.aero,
             Some(grid),
+            opts.fracture,
         )
     }
 
@@ -449,8 +503,12 @@ impl ModelBuilder {
         pins: &[usize],
         aero: Aero,
         grid: Option<GridLayout>,
+        fracture: Option<Breakable>,
     ) -> Result<BodyHandle, ModelError> {
         check_stiffness("stiffness", stiffness)?;
+        if let Some(f) = &fracture {
+            f.check()?;
+        }
         if let Some(s) = shear {
             check_stiffness("shear", s)?;
         }
@@ -608,7 +666,15 @@ impl ModelBuilder {
             new_springs.sort_by_key(|sp| (sp.0[1] - sp.0[0], sp.0[0]));
         }
         self.springs.extend(new_springs);
-        self.bodies.push(BodyDesc { kind, gas: 0.0, external_pressure: 0.0, rest_volume: 0.0, aero, anchor: base });
+        self.bodies.push(BodyDesc {
+            kind,
+            gas: 0.0,
+            external_pressure: 0.0,
+            rest_volume: 0.0,
+            aero,
+            anchor: base,
+            fracture,
+        });
         Ok(BodyHandle { index: body as usize, first_particle: base as usize, particle_count: n, first_triangle })
     }
 
@@ -634,7 +700,8 @@ impl ModelBuilder {
         );
         let r = R::from_f64;
         let v = R::V::from_dvec3;
-        Ok(Model {
+        let breakable = |p: u32| self.bodies.get(p as usize).and_then(|b| b.fracture).unwrap_or_default();
+        let mut model = Model {
             particle_q0: self.q.iter().map(|&x| v(x)).collect(),
             particle_qd0: self.qd.iter().map(|&x| v(x)).collect(),
             particle_mass: self.mass.iter().map(|&m| r(m)).collect(),
@@ -650,6 +717,15 @@ impl ModelBuilder {
             spring_stiffness: self.springs.iter().map(|s| r(s.2)).collect(),
             spring_damping: self.springs.iter().map(|s| r(s.3)).collect(),
             spring_kind: self.springs.iter().map(|s| s.4).collect(),
+            spring_strain_limit: self
+                .springs
+                .iter()
+                .map(|s| {
+                    let (bi, bj) = (self.particle_body[s.0[0] as usize], self.particle_body[s.0[1] as usize]);
+                    if bi == bj { r(breakable(bi).strain_limit) } else { R::infinity() }
+                })
+                .collect(),
+            particle_load_limit: self.particle_body.iter().map(|&b| r(breakable(b).load_limit)).collect(),
             tri_indices: self.tris.clone(),
             tri_body: self.tri_body.clone(),
             body_kind: self.bodies.iter().map(|b| b.kind).collect(),
@@ -659,14 +735,19 @@ impl ModelBuilder {
             body_drag: self.bodies.iter().map(|b| r(b.aero.drag)).collect(),
             body_lift: self.bodies.iter().map(|b| r(b.aero.lift)).collect(),
             body_anchor: self.bodies.iter().map(|b| b.anchor).collect(),
-            spring_runs: SpringRun::detect(&self.springs.iter().map(|s| s.0).collect::<Vec<_>>()),
+            body_sealed: self.bodies.iter().map(|b| b.fracture.is_some_and(|f| f.sealed)).collect(),
+            openings: Vec::new(),
+            breakable: false,
+            spring_runs: SpringRun::detect_if_useful(&self.springs.iter().map(|s| s.0).collect::<Vec<_>>()),
             particle_springs,
             particle_tris,
             gravity: v(self.gravity),
             damping_model: self.damping_model,
             wind: self.wind.clone(),
             colliders: self.colliders.clone(),
-        })
+        };
+        model.breakable = model.compute_breakable();
+        Ok(model)
     }
 }
 
@@ -708,6 +789,10 @@ pub struct Model<R: Real = f32> {
     pub spring_damping: Vec<R>,
     /// What each spring represents.
     pub spring_kind: Vec<SpringKind>,
+    /// Strain `(l - L0) / L0` past which each spring breaks (infinity: never).
+    pub spring_strain_limit: Vec<R>,
+    /// Load [N] past which each particle breaks out as a core block (infinity: never); see the `fracture` module.
+    pub particle_load_limit: Vec<R>,
     /// Triangles, counter-clockwise from outside.
     pub tri_indices: Vec<[u32; 3]>,
     /// Owning body of each triangle.
@@ -727,11 +812,18 @@ pub struct Model<R: Real = f32> {
     pub body_lift: Vec<R>,
     /// A particle of each body about which its volume is summed (round-off control only).
     pub body_anchor: Vec<u32>,
+    /// Whether each body keeps its gas when punctured.
+    pub body_sealed: Vec<bool>,
+    /// Openings of the gas bodies (none until something breaks).
+    pub openings: Vec<Opening>,
+    /// Derived: some spring or particle can break (only then does the fracture pass do any work).
+    pub breakable: bool,
     /// Springs of each particle: entry `s << 1 | end`, `end` 0 for `spring_indices[s][0]`.
     pub particle_springs: Csr,
     /// Triangles of each particle.
     pub particle_tris: Csr,
-    /// Maximal runs of consecutive springs whose ends advance together (see [`SpringRun`]); derived.
+    /// Maximal runs of consecutive springs whose ends advance together (see [`SpringRun`]); derived. Empty when
+    /// the runs would be too short to pay (irregular meshes): the gather kernel is used then.
     pub spring_runs: Vec<SpringRun>,
     /// Gravity [m/s^2].
     pub gravity: R::V,
@@ -759,6 +851,13 @@ pub struct SpringRun {
 }
 
 impl SpringRun {
+    /// [`SpringRun::detect`] if the runs are long enough for the run kernel (average ≥ 16), else empty: a model
+    /// keeps runs only while it uses them.
+    pub fn detect_if_useful(springs: &[[u32; 2]]) -> Vec<SpringRun> {
+        let runs = Self::detect(springs);
+        if springs.len() >= 16 * runs.len() { runs } else { Vec::new() }
+    }
+
     /// Splits `springs` into maximal runs.
     pub fn detect(springs: &[[u32; 2]]) -> Vec<SpringRun> {
         let mut runs: Vec<SpringRun> = Vec::new();
@@ -824,6 +923,19 @@ impl<R: Real> Model<R> {
     pub fn body_count(&self) -> usize {
         self.body_kind.len()
     }
+    /// Number of springs that have not broken.
+    pub fn live_spring_count(&self) -> usize {
+        self.spring_kind.iter().filter(|&&k| k != SpringKind::Broken).count()
+    }
+    /// True if something can break (a finite strain or load limit): only then does the fracture pass run.
+    pub fn has_fracture(&self) -> bool {
+        self.breakable
+    }
+    /// Scans the limits for [`Model::breakable`].
+    pub fn compute_breakable(&self) -> bool {
+        self.spring_strain_limit.iter().zip(&self.spring_kind).any(|(l, &k)| l.is_finite() && k != SpringKind::Broken)
+            || self.particle_load_limit.iter().any(|l| l.is_finite())
+    }
     /// True if any body holds gas: only then is the pressure pass run.
     pub fn has_pressure(&self) -> bool {
         self.body_gas_amount.iter().any(|&g| g > R::ZERO)
@@ -850,7 +962,32 @@ impl<R: Real> Model<R> {
             let [x0, x1, x2] = tri.map(|i| state.particle_q[i as usize].to_dvec3() - c);
             vol[b] += x0.dot(x1.cross(x2)) / 6.0;
         }
+        for o in &self.openings {
+            let b = o.body as usize;
+            let c = state.particle_q[self.body_anchor[b] as usize].to_dvec3();
+            let x = |i: u32| state.particle_q[i as usize].to_dvec3() - c;
+            let n = o.vertices.len();
+            let centre = o.vertices.iter().map(|&i| x(i)).sum::<DVec3>() / n as f64;
+            for k in 0..n {
+                let (i, j) = (o.vertices[k], o.vertices[(k + 1) % n]);
+                vol[b] += x(j).dot(x(i).cross(centre)) / 6.0;
+            }
+        }
         vol
+    }
+
+    /// Total area [m^2] of the openings of body `b` (the area of their caps' vector sums), `f64`.
+    pub fn opening_area(&self, state: &State<R>, b: usize) -> f64 {
+        self.openings
+            .iter()
+            .filter(|o| o.body as usize == b)
+            .map(|o| {
+                let n = o.vertices.len();
+                let x = |k: usize| state.particle_q[o.vertices[k % n] as usize].to_dvec3();
+                let a: DVec3 = (0..n).map(|k| x(k).cross(x(k + 1))).sum();
+                0.5 * a.length()
+            })
+            .sum()
     }
 
     /// Gas pressure `nRT / V` of each body [Pa] (0 without gas).
@@ -917,13 +1054,15 @@ impl<R: Real> Model<R> {
             self.spring_indices
                 .iter()
                 .enumerate()
+                .filter(|(s, _)| self.spring_kind[*s] != SpringKind::Broken)
                 .flat_map(|(s, ij)| [(ij[0], (s as u32) << 1), (ij[1], ((s as u32) << 1) | 1)]),
         );
         self.particle_tris = Csr::from_pairs(
             n,
             self.tri_indices.iter().enumerate().flat_map(|(t, tri)| tri.iter().map(move |&v| (v, t as u32))),
         );
-        self.spring_runs = SpringRun::detect(&self.spring_indices);
+        self.spring_runs = SpringRun::detect_if_useful(&self.spring_indices);
+        self.breakable = self.compute_breakable();
     }
 
     /// True when the springs form long runs (average ≥ 16), so the run kernel is used.
@@ -933,6 +1072,13 @@ impl<R: Real> Model<R> {
 
     /// Connected pieces of the surface (particles joined by springs): `(count, label per particle)`.
     pub fn components(&self) -> (usize, Vec<u32>) {
-        connected_components(self.particle_count(), self.spring_indices.iter().copied())
+        connected_components(
+            self.particle_count(),
+            self.spring_indices
+                .iter()
+                .zip(&self.spring_kind)
+                .filter(|(_, k)| **k != SpringKind::Broken)
+                .map(|(s, _)| *s),
+        )
     }
 }

@@ -54,6 +54,12 @@ pub trait Real:
     fn min(self, o: Self) -> Self;
     /// Neither NaN nor infinite.
     fn is_finite(self) -> bool;
+    /// Largest integer not above `self`.
+    fn floor(self) -> Self;
+    /// Unit in the last place of a positive finite `self`: the gap to the next larger number.
+    fn ulp(self) -> Self;
+    /// Positive infinity.
+    fn infinity() -> Self;
 }
 
 /// A 3-vector over a [`Real`] scalar; implemented by [`Vec3`] and [`DVec3`].
@@ -138,6 +144,17 @@ macro_rules! impl_real {
             #[inline(always)]
             fn is_finite(self) -> bool {
                 <$t>::is_finite(self)
+            }
+            #[inline(always)]
+            fn floor(self) -> Self {
+                <$t>::floor(self)
+            }
+            fn ulp(self) -> Self {
+                // Adjacent positive floats differ by one in their bit patterns; the difference is exact.
+                <$t>::from_bits(self.to_bits() + 1) - self
+            }
+            fn infinity() -> Self {
+                <$t>::INFINITY
             }
         }
 

@@ -329,6 +329,9 @@ impl<R: Real> CpuSolver<R> {
                     for &tt in m.particle_tris.row(i) {
                         force += f.tri_f[tt as usize];
                     }
+                    if !f.cap_f.is_empty() {
+                        force += f.cap_f[i];
+                    }
                 }
                 let v = qd[i] + force * (w * dt);
                 vs[k] = v;
@@ -497,6 +500,9 @@ impl<R: Real> CpuSolver<R> {
                     gs[k] = acc * sixth;
                 }
             });
+            for &i in &self.f.cap_touched {
+                im.g[i as usize] += self.f.cap_g[i as usize];
+            }
             for b in 0..m.body_count() {
                 let gas = m.body_gas_amount[b];
                 let v = self.f.body_volume[b].max(m.body_rest_volume[b] * R::from_f64(1e-3));

@@ -18,11 +18,14 @@ pub enum Stage {
     Solve,
     /// Collision detection and response.
     Collide,
+    /// Fracture: strain and load checks, splits, openings and the gas leak (between steps).
+    Fracture,
 }
 
 impl Stage {
     /// All stages in step order.
-    pub const ALL: [Stage; 5] = [Stage::Springs, Stage::Surface, Stage::Integrate, Stage::Solve, Stage::Collide];
+    pub const ALL: [Stage; 6] =
+        [Stage::Springs, Stage::Surface, Stage::Integrate, Stage::Solve, Stage::Collide, Stage::Fracture];
 
     /// Lower-case name.
     pub fn name(self) -> &'static str {
@@ -32,6 +35,7 @@ impl Stage {
             Stage::Integrate => "integrate",
             Stage::Solve => "solve",
             Stage::Collide => "collide",
+            Stage::Fracture => "fracture",
         }
     }
 }
@@ -39,8 +43,8 @@ impl Stage {
 /// Accumulated wall time and call count per [`Stage`], and steps taken.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct StageTimers {
-    time: [Duration; 5],
-    calls: [u64; 5],
+    time: [Duration; 6],
+    calls: [u64; 6],
     /// Steps accumulated.
     pub steps: u64,
     /// Total step time.
@@ -61,6 +65,13 @@ impl StageTimers {
     /// Times `stage` was entered.
     pub fn calls(&self, stage: Stage) -> u64 {
         self.calls[stage as usize]
+    }
+    /// Adds `other`'s stage times and calls (not its steps or total) to these.
+    pub fn merge_stages(&mut self, other: &StageTimers) {
+        for k in 0..self.time.len() {
+            self.time[k] += other.time[k];
+            self.calls[k] += other.calls[k];
+        }
     }
     /// Clears everything.
     pub fn reset(&mut self) {

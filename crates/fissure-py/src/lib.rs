@@ -392,7 +392,7 @@ impl ModelBuilder {
     #[pyo3(signature = (mesh, *, mass = None, area_density = None, particle_mass = None, stiffness = None,
         spring_stiffness = None, damping_ratio = None, spring_damping = None, bending = None, pressure = None,
         gas_amount = None, external_pressure = 0.0, velocity = (0.0, 0.0, 0.0), drag = 0.0, lift = 0.0,
-        reorient = true))]
+        reorient = true, strain_limit = None, load_limit = None, sealed = false))]
     #[allow(clippy::too_many_arguments)]
     fn add_soft_body<'py>(
         &mut self,
@@ -413,6 +413,9 @@ impl ModelBuilder {
         drag: f64,
         lift: f64,
         reorient: bool,
+        strain_limit: Option<f64>,
+        load_limit: Option<f64>,
+        sealed: bool,
     ) -> PyResult<Bound<'py, PyDict>> {
         let d = fissure::SoftBodyOptions::default();
         let gas = match (pressure, gas_amount) {
@@ -433,6 +436,7 @@ impl ModelBuilder {
             aero: Aero { drag, lift },
             reorient,
             velocity: vec3("velocity", velocity)?,
+            fracture: breakable_from(strain_limit, load_limit, sealed),
         };
         let h = self.inner.add_soft_body(&mesh.inner, &opts).map_err(value_err)?;
         handle_dict(py, h)
@@ -441,7 +445,7 @@ impl ModelBuilder {
     /// Adds a cloth from any mesh (edge springs, optional bending springs, pins by vertex index).
     #[pyo3(signature = (mesh, *, mass = None, area_density = None, particle_mass = None, stiffness = None,
         spring_stiffness = None, bending = None, damping_ratio = None, spring_damping = None, pins = vec![],
-        drag = 1.0, lift = 0.5))]
+        drag = 1.0, lift = 0.5, strain_limit = None, load_limit = None))]
     #[allow(clippy::too_many_arguments)]
     fn add_cloth<'py>(
         &mut self,
@@ -458,6 +462,8 @@ impl ModelBuilder {
         pins: Vec<usize>,
         drag: f64,
         lift: f64,
+        strain_limit: Option<f64>,
+        load_limit: Option<f64>,
     ) -> PyResult<Bound<'py, PyDict>> {
         let d = fissure::ClothOptions::default();
         let opts = fissure::ClothOptions {
@@ -468,6 +474,7 @@ impl ModelBuilder {
             damping: damping_from(damping_ratio, spring_damping, d.damping)?,
             pins,
             aero: Aero { drag, lift },
+            fracture: breakable_from(strain_limit, load_limit, false),
         };
         let h = self.inner.add_cloth(&mesh.inner, &opts).map_err(value_err)?;
         handle_dict(py, h)
@@ -477,7 +484,8 @@ impl ModelBuilder {
     /// corner at `origin`, x to the right, rows along `down` (default -y), in the plane they span.
     #[pyo3(signature = (nx, ny, spacing, *, origin = (0.0, 0.0, 0.0), down = (0.0, -1.0, 0.0),
         mass = None, area_density = None, particle_mass = None, spring_stiffness = 1000.0, shear = 1000.0,
-        bending = 1000.0, damping_ratio = None, spring_damping = None, pins = vec![], drag = 1.0, lift = 0.5))]
+        bending = 1000.0, damping_ratio = None, spring_damping = None, pins = vec![], drag = 1.0, lift = 0.5,
+        strain_limit = None, load_limit = None))]
     #[allow(clippy::too_many_arguments)]
     fn add_cloth_grid<'py>(
         &mut self,
@@ -498,6 +506,8 @@ impl ModelBuilder {
         pins: Vec<usize>,
         drag: f64,
         lift: f64,
+        strain_limit: Option<f64>,
+        load_limit: Option<f64>,
     ) -> PyResult<Bound<'py, PyDict>> {
         let d = fissure::ClothOptions::default();
         let o = vec3("origin", origin)?;
@@ -514,6 +524,7 @@ impl ModelBuilder {
             damping: damping_from(damping_ratio, spring_damping, d.damping)?,
             pins,
             aero: Aero { drag, lift },
+            fracture: breakable_from(strain_limit, load_limit, false),
         };
         // Grid rows run along -y in the mesh generator: map (x, -row) to origin + x X + row down.
         let place = |p: DVec3| o + DVec3::X * p.x + down * (-p.y);
@@ -974,6 +985,18 @@ impl World {
         })
         .map_err(value_err)
     }
+}
+
+/// Fracture options from keyword arguments: `None` when nothing can break and nothing is sealed.
+fn breakable_from(strain_limit: Option<f64>, load_limit: Option<f64>, sealed: bool) -> Option<fissure::Breakable> {
+    if strain_limit.is_none() && load_limit.is_none() && !sealed {
+        return None;
+    }
+    Some(fissure::Breakable {
+        strain_limit: strain_limit.unwrap_or(f64::INFINITY),
+        load_limit: load_limit.unwrap_or(f64::INFINITY),
+        sealed,
+    })
 }
 
 /// The compiled core of the `fissure` package.

@@ -1,0 +1,386 @@
+//! Fracture: invariants after every split (property tests over random fracture sequences), exact mass,
+//! momentum, cracks that open and detach pieces, core blocks, capped volumes, the gas leak, the averaged trigger,
+//! determinism, and no fracture work when nothing can break.
+
+mod common;
+
+use common::Rng;
+use fissure_core::glam::DVec3;
+use fissure_core::*;
+use proptest::prelude::*;
+
+/// Exact sum of `f64` masses in fixed point (2^-100 kg units); panics if a mass is not a multiple of the unit.
+fn exact_mass<R: Real>(m: &Model<R>) -> i128 {
+    m.particle_mass
+        .iter()
+        .map(|&x| {
+            let y = x.to_f64() * 2f64.powi(100);
+            assert_eq!(y.fract(), 0.0, "mass {} below the fixed-point unit", x.to_f64());
+            y as i128
+        })
+        .sum()
+}
+
+#[derive(Clone, Copy, Debug)]
+enum Shape {
+    Ball,
+    Cloth,
+    Torus,
+}
+
+fn model_of(shape: Shape) -> Model<f64> {
+    let mut b = ModelBuilder::new();
+    let brk = Some(Breakable { strain_limit: 0.5, load_limit: 10.0, sealed: false });
+    match shape {
+        Shape::Ball => {
+            let opts = SoftBodyOptions {
+                gas: Gas::Pressure(1000.0),
+                bending: Some(Stiffness::Membrane(10.0)),
+                fracture: brk,
+                ..Default::default()
+            };
+            b.add_soft_body(&Mesh::icosphere(0.3, 2), &opts).unwrap();
+        }
+        Shape::Cloth => {
+            let opts = ClothOptions { fracture: brk, pins: vec![0], ..Default::default() };
+            b.add_cloth_grid(7, 6, 0.1, |p| p, &opts).unwrap();
+        }
+        Shape::Torus => {
+            let text = include_str!("data/torus.obj");
+            let mesh = Mesh::parse_obj(text, Some(1e-6)).unwrap();
+            assert!(mesh.is_closed(), "the seamed torus welds closed");
+            let opts = SoftBodyOptions { gas: Gas::Pressure(500.0), fracture: brk, ..Default::default() };
+            b.add_soft_body(&mesh, &opts).unwrap();
+        }
+    }
+    b.finalize().unwrap()
+}
+
+/// Applies `ops` (`(core?, pick)`) to a fresh model of `shape`, checking every invariant after each split.
+fn run_sequence(shape: Shape, ops: &[(bool, u64)], seed: u64) -> Result<(), TestCaseError> {
+    let mut m = model_of(shape);
+    let mut s = m.state();
+    let mut rng = Rng(seed);
+    for v in &mut s.particle_qd {
+        *v = rng.vec();
+    }
+    let mass0 = exact_mass(&m);
+    let p0 = m.momentum(&s);
+    let scale: f64 = m.particle_mass.iter().sum::<f64>() * 2.0;
+    let mut f = Fracture::<f64>::default();
+    for &(core, pick) in ops {
+        let events = if core {
+            let v = (pick % m.particle_count() as u64) as usize;
+            f.break_core(&mut m, &mut s, v)
+        } else {
+            let sp = (pick % m.spring_count() as u64) as usize;
+            f.break_spring(&mut m, &mut s, sp)
+        };
+        if let Err(e) = check_invariants(&m) {
+            return Err(TestCaseError::fail(format!("{shape:?} after {events:?}: {e}")));
+        }
+        prop_assert_eq!(s.particle_q.len(), m.particle_count());
+        prop_assert_eq!(exact_mass(&m), mass0, "mass changed");
+        let dp = (m.momentum(&s) - p0).length();
+        prop_assert!(dp <= 1e-13 * scale, "momentum changed by {dp}");
+        for (t, tri) in m.tri_indices.iter().enumerate() {
+            let [a, b, c] = tri.map(|v| s.particle_q[v as usize]);
+            prop_assert!((b - a).cross(c - a).length() > 0.0, "triangle {t} has zero area");
+        }
+        for e in &events {
+            prop_assert!(e.new_particles.iter().all(|&p| (p as usize) < m.particle_count()));
+        }
+    }
+    Ok(())
+}
+
+fn ops() -> impl Strategy<Value = Vec<(bool, u64)>> {
+    prop::collection::vec((prop::bool::weighted(0.25), any::<u64>()), 1..40)
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig { cases: 1000, ..ProptestConfig::default() })]
+
+    #[test]
+    fn random_fractures_keep_invariants_on_icospheres(ops in ops(), seed in any::<u64>()) {
+        run_sequence(Shape::Ball, &ops, seed)?;
+    }
+
+    #[test]
+    fn random_fractures_keep_invariants_on_grids(ops in ops(), seed in any::<u64>()) {
+        run_sequence(Shape::Cloth, &ops, seed)?;
+    }
+
+    #[test]
+    fn random_fractures_keep_invariants_on_an_imported_obj(ops in ops(), seed in any::<u64>()) {
+        run_sequence(Shape::Torus, &ops, seed)?;
+    }
+}
+
+/// A sheet pinned along its top row, its lower half thrown downwards: springs across the middle pass their limit,
+/// the crack runs across the sheet, and the lower part comes off as its own body.
+#[test]
+fn a_torn_sheet_detaches_its_lower_half() {
+    let n = 12;
+    let mut b = ModelBuilder::new();
+    b.gravity(DVec3::ZERO);
+    let opts = ClothOptions {
+        pins: (0..n).collect(),
+        fracture: Some(Breakable { strain_limit: 0.3, ..Default::default() }),
+        mass: Mass::PerParticle(1e-3),
+        ..Default::default()
+    };
+    b.add_cloth_grid(n, n, 0.02, |p| p, &opts).unwrap();
+    let mut m: Model<f64> = b.finalize().unwrap();
+    let mut s = m.state();
+    for i in n * n / 2..n * n {
+        s.particle_qd[i] = DVec3::new(0.0, -20.0, 0.0);
+    }
+    let mass0 = exact_mass(&m);
+    let mut solver = CpuSolver::with_integrator(Integrator::SymplecticEuler);
+    let mut f = Fracture::<f64>::default();
+    let mut events = Vec::new();
+    for _ in 0..4000 {
+        solver.step(&m, &mut s, 2e-5).unwrap();
+        let e = f.apply(&mut m, &mut s, 2e-5);
+        if !e.is_empty() {
+            solver.notify_model_changed(&m);
+        }
+        check_invariants(&m).unwrap();
+        events.extend(e);
+    }
+    assert_eq!(exact_mass(&m), mass0);
+    let springs = events.iter().filter(|e| e.kind == FractureKind::Spring).count();
+    let detach = events.iter().filter(|e| e.kind == FractureKind::Detach).count();
+    assert!(springs >= n - 1, "{springs} springs broke");
+    assert!(detach >= 1, "nothing detached: {events:?}");
+    assert!(m.body_count() >= 2);
+    assert!(m.components().0 >= 2);
+    // The detached part moves away; the pinned row stays.
+    let lowest = s.particle_q.iter().map(|x| x.y).fold(f64::INFINITY, f64::min);
+    assert!(lowest < -0.5, "lowest point {lowest}");
+    assert!(s.particle_q.iter().all(|x| x.is_finite()));
+}
+
+fn balloon(sealed: bool) -> (Model<f64>, State<f64>) {
+    let mut b = ModelBuilder::new();
+    b.gravity(DVec3::ZERO);
+    let opts = SoftBodyOptions {
+        gas: Gas::Pressure(2000.0),
+        stiffness: Stiffness::Membrane(500.0),
+        damping: Damping::Ratio(0.3),
+        fracture: Some(Breakable { sealed, ..Default::default() }),
+        ..Default::default()
+    };
+    b.add_soft_body(&Mesh::icosphere(0.2, 3), &opts).unwrap();
+    let m: Model<f64> = b.finalize().unwrap();
+    let s = m.state();
+    (m, s)
+}
+
+/// A core block breaks out of a balloon: a new body, one opening, mass exact, the capped volume independent of
+/// the origin, and the pressure force still summing to zero.
+#[test]
+fn a_core_block_breaks_out_and_leaves_a_capped_opening() {
+    let (mut m, mut s) = balloon(false);
+    let mass0 = exact_mass(&m);
+    let v0 = m.body_volumes(&s)[0];
+    let mut f = Fracture::<f64>::default();
+    let ev = f.break_core(&mut m, &mut s, 7);
+    assert_eq!(ev.len(), 1);
+    assert_eq!(ev[0].kind, FractureKind::Core);
+    check_invariants(&m).unwrap();
+    assert_eq!(exact_mass(&m), mass0);
+    assert_eq!(m.body_count(), 2);
+    assert_eq!(m.components().0, 2);
+    assert_eq!(m.openings.len(), 1);
+    assert_eq!(m.openings[0].body, 0);
+    // The hole is small and the cap closes it: the volume is about the sphere's.
+    let v1 = m.body_volumes(&s)[0];
+    assert!((v1 / v0 - 1.0).abs() < 0.01, "capped volume {v1} vs {v0}");
+    // Independent of the origin.
+    let mut shifted = s.clone();
+    for x in &mut shifted.particle_q {
+        *x += DVec3::new(50.0, -20.0, 7.0);
+    }
+    let v2 = m.body_volumes(&shifted)[0];
+    assert!((v2 - v1).abs() < 1e-9 * v1, "{v2} vs {v1}");
+    // Net internal force (no gravity) is zero: the caps take the gas's push on the hole.
+    let mut solver = CpuSolver::<f64>::default();
+    let mut out = vec![DVec3::ZERO; m.particle_count()];
+    solver.compute_forces(&m, &s, &mut out).unwrap();
+    let net: DVec3 = out.iter().sum();
+    let scale: f64 = out.iter().map(|f| f.length()).sum();
+    assert!(net.length() < 1e-10 * scale, "net force {net} (scale {scale})");
+}
+
+/// A punctured balloon loses gas through its opening and shrinks (the seed's Fig. 6, right); a sealed one keeps
+/// its gas.
+#[test]
+fn a_punctured_balloon_leaks_and_shrinks_unless_sealed() {
+    let mut results = Vec::new();
+    for sealed in [false, true] {
+        let (mut m, mut s) = balloon(sealed);
+        let mut f = Fracture::<f64>::default();
+        let mut solver = CpuSolver::with_integrator(Integrator::SymplecticEuler);
+        // Inflate: the gas stretches the membrane well past its rest shape.
+        for _ in 0..3000 {
+            solver.step(&m, &mut s, 1e-4).unwrap();
+        }
+        let gas0 = m.body_gas_amount[0];
+        let v0 = m.body_volumes(&s)[0];
+        assert!(!f.break_core(&mut m, &mut s, 5).is_empty());
+        // Widen the hole: the neighbours of the first opening break out too.
+        let rim = m.openings[0].vertices.clone();
+        for &p in &rim {
+            let far: Vec<u32> =
+                m.particle_tris.row(p as usize).iter().flat_map(|&t| m.tri_indices[t as usize]).collect();
+            for q in far {
+                if m.particle_body[q as usize] == 0 && !rim.contains(&q) {
+                    f.break_core(&mut m, &mut s, q as usize);
+                }
+            }
+        }
+        solver.notify_model_changed(&m);
+        check_invariants(&m).unwrap();
+        let mut vols = vec![v0];
+        for k in 0..10000 {
+            solver.step(&m, &mut s, 1e-4).unwrap();
+            f.apply(&mut m, &mut s, 1e-4);
+            if k % 2000 == 1999 {
+                vols.push(m.body_volumes(&s)[0]);
+            }
+        }
+        let gas1 = m.body_gas_amount[0];
+        results.push((sealed, gas0, gas1, vols.clone()));
+        if sealed {
+            assert_eq!(gas1, gas0, "sealed: gas kept");
+        } else {
+            assert!(gas1 < 0.5 * gas0, "gas {gas0} -> {gas1}");
+            assert!(vols.last().unwrap() < &(0.85 * v0), "volumes {vols:?}");
+        }
+    }
+    let (_, _, _, open) = &results[0];
+    let (_, _, _, sealed) = &results[1];
+    assert!(open.last().unwrap() < &(0.85 * sealed.last().unwrap()), "open {open:?} sealed {sealed:?}");
+}
+
+/// The time-averaged trigger (Bao et al. 2007) ignores a one-step spike that breaks at once under the
+/// instantaneous trigger, and breaks under a sustained overload.
+#[test]
+fn the_averaged_trigger_needs_a_sustained_overload() {
+    let build = || {
+        let mut b = ModelBuilder::new();
+        b.gravity(DVec3::ZERO);
+        let opts = ClothOptions {
+            fracture: Some(Breakable { strain_limit: 0.2, ..Default::default() }),
+            shear: None,
+            bending: None,
+            ..Default::default()
+        };
+        b.add_cloth_grid(3, 3, 0.1, |p| p, &opts).unwrap();
+        b.finalize::<f64>().unwrap()
+    };
+    let stretch = |s: &mut State<f64>, k: f64| {
+        for i in 0..9 {
+            s.particle_q[i].x = (i % 3) as f64 * 0.1 * k;
+        }
+    };
+    let dt = 1e-3;
+    // Instant: one stretched step breaks.
+    let mut m = build();
+    let mut s = m.state();
+    let mut f = Fracture::<f64>::default();
+    stretch(&mut s, 1.5);
+    assert!(!f.apply(&mut m, &mut s, dt).is_empty());
+    // Averaged over 20 ms: one stretched step does not, twenty back-to-back do.
+    let cfg = FractureConfig { trigger: Trigger::Averaged { window: 0.02 }, ..Default::default() };
+    let mut m = build();
+    let mut s = m.state();
+    let mut f = Fracture::<f64>::new(cfg);
+    stretch(&mut s, 1.5);
+    assert!(f.apply(&mut m, &mut s, dt).is_empty());
+    stretch(&mut s, 1.0);
+    for _ in 0..50 {
+        assert!(f.apply(&mut m, &mut s, dt).is_empty());
+    }
+    stretch(&mut s, 1.5);
+    let mut broke_at = None;
+    for k in 0..100 {
+        if !f.apply(&mut m, &mut s, dt).is_empty() {
+            broke_at = Some(k);
+            break;
+        }
+    }
+    let k = broke_at.expect("a sustained overload breaks");
+    // 1 - exp(-t/τ) > 0.2/0.5 = 0.4 needs t > τ ln(1/0.6) ≈ 10 ms.
+    assert!((8..=12).contains(&k), "broke after {k} steps");
+}
+
+/// Fracture runs are bit-identical on 1 and 4 threads.
+#[test]
+fn fracture_is_deterministic_across_thread_counts() {
+    let run = |threads: usize| {
+        let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
+        pool.install(|| {
+            let mut b = ModelBuilder::new();
+            let opts = SoftBodyOptions {
+                gas: Gas::Pressure(4000.0),
+                velocity: DVec3::new(0.0, -6.0, 0.0),
+                fracture: Some(Breakable { strain_limit: 0.15, load_limit: 2.0, sealed: false }),
+                ..Default::default()
+            };
+            b.add_soft_body(&Mesh::icosphere(0.2, 3).translated(DVec3::new(0.0, 0.25, 0.0)), &opts).unwrap();
+            b.add_collider(Collider::ground(0.0));
+            b.add_collider(Collider::ball(fissure_core::glam::Vec3::new(0.05, 0.0, 0.0), 0.06));
+            let m: Model<f32> = b.finalize().unwrap();
+            let mut w_model = m;
+            let mut s = w_model.state();
+            let mut solver = CpuSolver::with_integrator(Integrator::SymplecticEuler);
+            let mut f = Fracture::<f32>::default();
+            let mut events = Vec::new();
+            for _ in 0..1500 {
+                solver.step(&w_model, &mut s, 5e-5).unwrap();
+                let e = f.apply(&mut w_model, &mut s, 5e-5);
+                if !e.is_empty() {
+                    solver.notify_model_changed(&w_model);
+                }
+                events.extend(e);
+            }
+            let bits: Vec<u32> = s.particle_q.iter().flat_map(|x| x.to_array()).map(f32::to_bits).collect();
+            (bits, events.len(), w_model.tri_indices.clone())
+        })
+    };
+    let (a, na, ta) = run(1);
+    let (b, nb, tb) = run(4);
+    assert!(na > 0, "the scene must break for this test to mean anything");
+    assert_eq!(na, nb);
+    assert_eq!(ta, tb);
+    assert!(a == b, "positions differ between 1 and 4 threads");
+}
+
+/// No breakable spring or vertex: the fracture pass does nothing, and its timer shows no call.
+#[test]
+fn no_fracture_work_without_breakable_springs() {
+    let mut b = ModelBuilder::new();
+    b.add_soft_body(&Mesh::icosphere(0.2, 2), &SoftBodyOptions::default()).unwrap();
+    let mut m: Model<f32> = b.finalize().unwrap();
+    assert!(!m.has_fracture());
+    let mut s = m.state();
+    let mut f = Fracture::<f32>::default();
+    for _ in 0..10 {
+        assert!(f.apply(&mut m, &mut s, 1e-4).is_empty());
+    }
+    assert_eq!(f.timers().calls(Stage::Fracture), 0);
+    // Breakable but unbroken: the checks run (and are timed).
+    let mut b = ModelBuilder::new();
+    let opts =
+        SoftBodyOptions { fracture: Some(Breakable { strain_limit: 1.0, ..Default::default() }), ..Default::default() };
+    b.add_soft_body(&Mesh::icosphere(0.2, 2), &opts).unwrap();
+    let mut m: Model<f32> = b.finalize().unwrap();
+    let mut s = m.state();
+    for _ in 0..10 {
+        assert!(f.apply(&mut m, &mut s, 1e-4).is_empty());
+    }
+    assert_eq!(f.timers().calls(Stage::Fracture), 10);
+}
