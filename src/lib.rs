@@ -25,6 +25,7 @@
 
 pub use fissure_core::*;
 
+pub mod scene;
 pub mod scenes;
 
 /// The README's code, compiled and run as a doctest so it cannot rot.

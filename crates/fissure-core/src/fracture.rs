@@ -89,6 +89,10 @@ pub struct FractureConfig {
     /// make ever lighter particles on the same springs (`ω = sqrt(k/m)` grows without bound) until the
     /// integrator goes unstable. Default 1/16 (a 4× higher frequency at most).
     pub min_mass_ratio: f64,
+    /// Simulated time [s] before which nothing breaks (the gas leak still runs). A pressurised body starts out of
+    /// equilibrium (its whole gas force unbalanced until the membrane stretches), and its load transient is not
+    /// a fracture; let it settle. Default 0.
+    pub start_time: f64,
 }
 
 impl Default for FractureConfig {
@@ -100,6 +104,7 @@ impl Default for FractureConfig {
             gas_density: 1.2,
             min_rest_length: 1e-5,
             min_mass_ratio: 1.0 / 16.0,
+            start_time: 0.0,
         }
     }
 }
@@ -166,6 +171,10 @@ pub struct Fracture<R: Real = f32> {
     spring_avg: Vec<R>,
     particle_avg: Vec<R>,
     candidates: Vec<(f64, u8, u32)>,
+    tri_force: Vec<DVec3>,
+    /// Body volumes of the current call (empty: not yet computed, or stale after a split).
+    volumes: Vec<f64>,
+    spring_force: Vec<DVec3>,
     /// Per-particle stamp: `step_gen` if touched this step.
     touched: Vec<u32>,
     step_gen: u32,
@@ -226,11 +235,12 @@ impl<R: Real> Fracture<R> {
     pub fn apply(&mut self, m: &mut Model<R>, s: &mut State<R>, dt: f64) -> Vec<FractureEvent> {
         let mut events = Vec::new();
         self.begin(m);
+        self.volumes.clear();
         if !self.needed(m) {
             return events;
         }
         let t0 = Instant::now();
-        if m.has_fracture() {
+        if m.has_fracture() && s.time >= self.config.start_time {
             self.scan(m, s, dt);
             let budget = self.config.max_events_per_step;
             let cands = std::mem::take(&mut self.candidates);
@@ -247,6 +257,9 @@ impl<R: Real> Fracture<R> {
                 done += ok as usize;
             }
             self.candidates = cands;
+            if !events.is_empty() {
+                self.volumes.clear();
+            }
             self.finish(m);
         }
         self.leak(m, s, dt);
@@ -268,7 +281,7 @@ impl<R: Real> Fracture<R> {
     }
 
     /// Breaks particle `v` out as a core block now, whatever its load: a puncture. Empty if it cannot (pinned,
-    /// on a boundary, valence outside 3..=64, a spoke that is not a spring).
+    /// on or next to a boundary, valence outside 3..=64, a spoke that is not a spring).
     pub fn break_core(&mut self, m: &mut Model<R>, s: &mut State<R>, v: usize) -> Vec<FractureEvent> {
         self.begin(m);
         let mut events = Vec::new();
@@ -345,13 +358,47 @@ impl<R: Real> Fracture<R> {
         let n = m.particle_count();
         self.particle_avg.resize(n, R::ZERO);
         if m.particle_load_limit.iter().any(|l| l.is_finite()) {
-            let pressures = if m.has_pressure() { m.body_pressures(s) } else { Vec::new() };
+            // Each spring's elastic force and each triangle's gas force on each corner, once; then per particle
+            // the sum over its springs and triangles.
+            self.spring_force.clear();
+            self.spring_force.extend(m.spring_indices.iter().enumerate().map(|(sp, &[i, j])| {
+                let d = q[j as usize].to_dvec3() - q[i as usize].to_dvec3();
+                let l = d.length();
+                let ks = m.spring_stiffness[sp].to_f64();
+                if l > 0.0 && ks != 0.0 { d * (ks * (l - m.spring_rest_length[sp].to_f64()) / l) } else { DVec3::ZERO }
+            }));
+            self.tri_force.clear();
+            if m.has_pressure() {
+                let pressures = self.pressures(m, s);
+                self.tri_force.extend(m.tri_indices.iter().zip(&m.tri_body).map(|(tri, &b)| {
+                    let p = pressures[b as usize];
+                    if p == 0.0 {
+                        return DVec3::ZERO;
+                    }
+                    let [a, b, c] = tri.map(|v| q[v as usize].to_dvec3());
+                    (b - a).cross(c - a) * (p / 6.0)
+                }));
+            }
             for i in 0..n {
                 let lim = m.particle_load_limit[i];
                 if !lim.is_finite() || m.particle_inv_mass[i] == R::ZERO {
                     continue;
                 }
-                let load = R::from_f64(elastic_load(m, s, &pressures, i));
+                let mut f = DVec3::ZERO;
+                for &e in m.particle_springs.row(i) {
+                    let v = self.spring_force[(e >> 1) as usize];
+                    if e & 1 == 0 {
+                        f += v;
+                    } else {
+                        f -= v;
+                    }
+                }
+                if !self.tri_force.is_empty() {
+                    for &t in m.particle_tris.row(i) {
+                        f += self.tri_force[t as usize];
+                    }
+                }
+                let load = R::from_f64(f.length());
                 let v = if alpha >= 1.0 {
                     load
                 } else {
@@ -365,6 +412,25 @@ impl<R: Real> Fracture<R> {
             }
         }
         self.candidates.sort_by(|a, b| b.0.total_cmp(&a.0).then(a.1.cmp(&b.1)).then(a.2.cmp(&b.2)));
+    }
+
+    /// Gas pressure of each body [Pa] (capped volumes), computed at most once per call of [`Fracture::apply`].
+    fn pressures(&mut self, m: &Model<R>, s: &State<R>) -> Vec<f64> {
+        if self.volumes.is_empty() {
+            self.volumes = m.body_volumes(s);
+        }
+        self.volumes
+            .iter()
+            .enumerate()
+            .map(|(b, &v)| {
+                let g = m.body_gas_amount[b].to_f64();
+                if g > 0.0 {
+                    g / v.max(1e-3 * m.body_rest_volume[b].to_f64()) - m.body_pressure_external[b].to_f64()
+                } else {
+                    0.0
+                }
+            })
+            .collect()
     }
 
     fn heavy_enough(&self, mass: R) -> bool {
@@ -517,6 +583,12 @@ impl<R: Real> Fracture<R> {
         let ring = &fans[0].0;
         let k = ring.len();
         if !(3..=64).contains(&k) {
+            return false;
+        }
+        // A vertex next to an opening is a crack tip: it tears in spring mode. Its load is dominated by the
+        // opening's rim (the cap's push, the missing hoop tension), and breaking it out as a core would eat the
+        // surface hole by hole.
+        if ring.iter().any(|&(_, x, _)| boundary_next(m, x).is_some()) {
             return false;
         }
         // p_i and the springs v–p_i.
@@ -777,7 +849,10 @@ impl<R: Real> Fracture<R> {
         let mut bodies: Vec<u32> = m.openings.iter().map(|o| o.body).collect();
         bodies.sort_unstable();
         bodies.dedup();
-        let vols = m.body_volumes(s);
+        if self.volumes.len() != m.body_count() {
+            self.volumes = m.body_volumes(s);
+        }
+        let vols = &self.volumes;
         for b in bodies {
             let bu = b as usize;
             let gas = m.body_gas_amount[bu].to_f64();
@@ -796,8 +871,25 @@ impl<R: Real> Fracture<R> {
     }
 }
 
-/// `|net elastic force|` on particle `i` [N]: its springs' `ks (l - L0)` terms and its share of the gas pressure.
+/// `|net elastic force|` on particle `i` [N]: its springs' `ks (l - L0)` terms and its share of the gas pressure
+/// (`pressures` per body, as from [`Model::body_pressures`]; empty: none). This is the core mode's load.
 pub fn elastic_load<R: Real>(m: &Model<R>, s: &State<R>, pressures: &[f64], i: usize) -> f64 {
+    let q = &s.particle_q;
+    let mut f = spring_elastic_force(m, s, i);
+    if !pressures.is_empty() {
+        for &t in m.particle_tris.row(i) {
+            let p = pressures[m.tri_body[t as usize] as usize];
+            if p != 0.0 {
+                let [a, b, c] = m.tri_indices[t as usize].map(|v| q[v as usize].to_dvec3());
+                f += (b - a).cross(c - a) * (p / 6.0);
+            }
+        }
+    }
+    f.length()
+}
+
+/// Sum of the elastic forces `ks (l - L0) d̂` of particle `i`'s springs [N].
+fn spring_elastic_force<R: Real>(m: &Model<R>, s: &State<R>, i: usize) -> DVec3 {
     let q = &s.particle_q;
     let xi = q[i].to_dvec3();
     let mut f = DVec3::ZERO;
@@ -810,16 +902,7 @@ pub fn elastic_load<R: Real>(m: &Model<R>, s: &State<R>, pressures: &[f64], i: u
             f += d / l * (m.spring_stiffness[sp].to_f64() * (l - m.spring_rest_length[sp].to_f64()));
         }
     }
-    if !pressures.is_empty() {
-        for &t in m.particle_tris.row(i) {
-            let p = pressures[m.tri_body[t as usize] as usize];
-            if p != 0.0 {
-                let [a, b, c] = m.tri_indices[t as usize].map(|v| q[v as usize].to_dvec3());
-                f += (b - a).cross(c - a) * (p / 6.0);
-            }
-        }
-    }
-    f.length()
+    f
 }
 
 fn tri_has<R: Real>(m: &Model<R>, t: u32, v: u32) -> bool {
@@ -940,9 +1023,8 @@ fn reduced<R: Real>(a: R, b: R) -> R {
     a * b / (a + b)
 }
 
-/// Sets particle `i`'s mass, keeping the damping ratio of its springs: each one's `kd` scales with the square
-/// root of its reduced mass. Without this, the damping rate `kd / m` of springs on ever lighter particles grows
-/// until explicit integrators go unstable.
+/// Sets particle `i`'s mass, keeping the frequency and damping ratio of its springs: each one's `ks` and `kd`
+/// scale with its reduced mass (see [`add_spring`]).
 fn set_mass<R: Real>(m: &mut Model<R>, i: usize, mass: R) {
     let old = m.particle_mass[i];
     for k in 0..m.particle_springs.row(i).len() {
@@ -950,7 +1032,9 @@ fn set_mass<R: Real>(m: &mut Model<R>, i: usize, mass: R) {
         let sp = (e >> 1) as usize;
         let w = m.spring_indices[sp][1 - (e & 1) as usize] as usize;
         let mw = m.particle_mass[w];
-        m.spring_damping[sp] *= (reduced(mass, mw) / reduced(old, mw)).sqrt();
+        let ratio = (reduced(mass, mw) / reduced(old, mw)).min(R::ONE);
+        m.spring_stiffness[sp] *= ratio;
+        m.spring_damping[sp] *= ratio;
     }
     m.particle_mass[i] = mass;
     if m.particle_inv_mass[i] != R::ZERO {
@@ -958,12 +1042,18 @@ fn set_mass<R: Real>(m: &mut Model<R>, i: usize, mass: R) {
     }
 }
 
-/// Adds a spring; its damping is `kd` scaled (down only) from reduced mass `red` to that of its ends, keeping
-/// the damping ratio of the spring it replaces.
+/// Adds a spring with the stiffness `ks` and damping `kd` of the spring it replaces, both scaled (down only) by
+/// the ratio of its ends' reduced mass to `red`, the replaced spring's: every spring keeps its frequency
+/// `sqrt(ks / m_red)` and damping ratio through a split. Splits share masses out, so without this a crack would
+/// make ever lighter particles on equally stiff springs and raise the highest frequency of the model — and
+/// with it the explicit integrators' stability limit `dt < 2 / ω` — at every split: a fracture storm would end
+/// in a blow-up. The material around a crack is a little softer instead (a damaged zone), and a model stays
+/// stable at the time step it started with.
 fn add_spring<R: Real>(m: &mut Model<R>, i: u32, j: u32, rest: R, ks: R, (kd, red): (R, R), limit: R) -> u32 {
     let sp = m.spring_count() as u32;
     let red_new = reduced(m.particle_mass[i as usize], m.particle_mass[j as usize]);
-    let kd = kd * (red_new / red).min(R::ONE).sqrt();
+    let ratio = (red_new / red).min(R::ONE);
+    let (ks, kd) = (ks * ratio, kd * ratio);
     m.spring_indices.push([i, j]);
     m.spring_rest_length.push(rest);
     m.spring_stiffness.push(ks);

@@ -956,11 +956,24 @@ impl<R: Real> Model<R> {
     /// Enclosed volume of each body [m^3] (0 for bodies without gas), `f64`.
     pub fn body_volumes(&self, state: &State<R>) -> Vec<f64> {
         let mut vol = vec![0.0; self.body_count()];
-        for (t, tri) in self.tri_indices.iter().enumerate() {
-            let b = self.tri_body[t] as usize;
-            let c = state.particle_q[self.body_anchor[b] as usize].to_dvec3();
+        // Runs of triangles of one body (the usual layout) accumulate in a register.
+        let mut run = (u32::MAX, DVec3::ZERO, 0.0);
+        for (tri, &b) in self.tri_indices.iter().zip(&self.tri_body) {
+            if b != run.0 {
+                if run.0 != u32::MAX {
+                    vol[run.0 as usize] += run.2;
+                }
+                run = (b, state.particle_q[self.body_anchor[b as usize] as usize].to_dvec3(), 0.0);
+            }
+            let c = run.1;
             let [x0, x1, x2] = tri.map(|i| state.particle_q[i as usize].to_dvec3() - c);
-            vol[b] += x0.dot(x1.cross(x2)) / 6.0;
+            run.2 += x0.dot(x1.cross(x2));
+        }
+        if run.0 != u32::MAX {
+            vol[run.0 as usize] += run.2;
+        }
+        for v in &mut vol {
+            *v /= 6.0;
         }
         for o in &self.openings {
             let b = o.body as usize;

@@ -1,0 +1,442 @@
+//! Scene files: TOML descriptions of bodies, colliders, wind, solver and fracture settings, read by one loader
+//! shared by the examples, the tests and (later) the command line. Unknown keys and bad values are errors that
+//! name the key. Units are SI throughout.
+//!
+//! ```toml
+//! [solver]
+//! integrator = "symplectic_euler"   # symplectic_euler | velocity_verlet | rk4 | implicit_euler
+//! dt = 5e-5                         # [s]
+//! duration = 2.0                    # [s]
+//! gravity = [0.0, -9.81, 0.0]       # [m/s^2]
+//!
+//! [fracture]                        # optional: the fracture pass's settings
+//! averaged_window = 0.002           # [s]; omit for the instantaneous trigger
+//! max_events_per_step = 8
+//!
+//! [[body]]
+//! shape = "icosphere"               # icosphere | cuboid | obj
+//! radius = 0.25                     # [m]
+//! subdivisions = 3
+//! position = [0.0, 1.5, 0.0]        # [m]
+//! velocity = [0.5, 0.0, 0.0]        # [m/s]
+//! mass = 0.5                        # [kg]
+//! stiffness = 2500.0                # membrane E·h [N/m]
+//! pressure = 3000.0                 # [Pa]; 0: no gas
+//! strain_limit = 0.3                # optional: spring mode
+//! load_limit = 4.0                  # optional: core mode [N]
+//!
+//! [[collider]]
+//! shape = "ball"                    # ground | plane | ball | cuboid | capsule
+//! center = [0.0, 0.3, 0.0]
+//! radius = 0.3
+//! ```
+
+use crate::*;
+use glam::{DVec3, Vec3};
+use serde::Deserialize;
+use std::path::{Path, PathBuf};
+
+/// A scene that could not be read or built.
+#[derive(Debug, thiserror::Error)]
+pub enum SceneError {
+    /// The file could not be read.
+    #[error("cannot read scene {path}: {source}")]
+    Io {
+        /// The path.
+        path: PathBuf,
+        /// The cause.
+        source: std::io::Error,
+    },
+    /// The TOML is malformed, has an unknown key, or a value of the wrong type (the message names the key).
+    #[error("scene {path}: {message}")]
+    Parse {
+        /// The path.
+        path: PathBuf,
+        /// What and where.
+        message: String,
+    },
+    /// A value is out of range.
+    #[error("scene {path}: `{key}` {message}")]
+    Value {
+        /// The path.
+        path: PathBuf,
+        /// The offending key.
+        key: String,
+        /// What is wrong.
+        message: String,
+    },
+    /// A mesh could not be loaded or the model could not be built.
+    #[error("scene {path}: {source}")]
+    Model {
+        /// The path.
+        path: PathBuf,
+        /// The cause.
+        source: Box<dyn std::error::Error + Send + Sync>,
+    },
+}
+
+/// A parsed scene file.
+#[derive(Clone, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Scene {
+    /// A title for output.
+    #[serde(default)]
+    pub title: String,
+    /// Solver settings.
+    #[serde(default)]
+    pub solver: SolverSection,
+    /// Fracture pass settings.
+    #[serde(default)]
+    pub fracture: FractureSection,
+    /// Bodies.
+    #[serde(default, rename = "body")]
+    pub bodies: Vec<BodySection>,
+    /// Colliders.
+    #[serde(default, rename = "collider")]
+    pub colliders: Vec<ColliderSection>,
+    /// A walled room: a floor at y = 0 and four walls at ± this half width [m].
+    #[serde(default)]
+    pub room_half_width: Option<f32>,
+    /// Wind.
+    #[serde(default)]
+    pub wind: Option<WindSection>,
+    /// Where the file was read from (set by [`Scene::load`]).
+    #[serde(skip)]
+    pub path: PathBuf,
+}
+
+/// `[solver]`.
+#[derive(Clone, Debug, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct SolverSection {
+    /// Integrator name. Default `symplectic_euler`.
+    pub integrator: String,
+    /// Step [s]. Default 1e-4.
+    pub dt: f64,
+    /// Simulated time of a run [s]. Default 2.
+    pub duration: f64,
+    /// Gravity [m/s^2]. Default (0, -9.81, 0).
+    pub gravity: [f64; 3],
+}
+
+impl Default for SolverSection {
+    fn default() -> Self {
+        SolverSection { integrator: "symplectic_euler".into(), dt: 1e-4, duration: 2.0, gravity: [0.0, -9.81, 0.0] }
+    }
+}
+
+/// `[fracture]`.
+#[derive(Clone, Debug, Default, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct FractureSection {
+    /// Time constant of the averaged trigger [s]; none: instantaneous.
+    pub averaged_window: Option<f64>,
+    /// Most splits per step. Default 32.
+    pub max_events_per_step: Option<usize>,
+    /// Orifice discharge coefficient. Default 0.6.
+    pub discharge_coefficient: Option<f64>,
+    /// Gas density [kg/m^3]. Default 1.2.
+    pub gas_density: Option<f64>,
+    /// Simulated time before anything may break [s]. Default 0.
+    pub start_time: Option<f64>,
+}
+
+/// `[[body]]`: a soft body (closed, optionally with gas).
+#[derive(Clone, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct BodySection {
+    /// `icosphere`, `cuboid` or `obj`.
+    pub shape: String,
+    /// Icosphere radius [m].
+    #[serde(default)]
+    pub radius: Option<f64>,
+    /// Icosphere subdivisions. Default 3.
+    #[serde(default)]
+    pub subdivisions: Option<u32>,
+    /// Cuboid half extents [m].
+    #[serde(default)]
+    pub half_extents: Option<[f64; 3]>,
+    /// Cuboid cells per edge. Default 4.
+    #[serde(default)]
+    pub cells: Option<usize>,
+    /// OBJ file, relative to the scene file.
+    #[serde(default)]
+    pub file: Option<String>,
+    /// Translation [m].
+    #[serde(default)]
+    pub position: [f64; 3],
+    /// Initial velocity [m/s].
+    #[serde(default)]
+    pub velocity: [f64; 3],
+    /// Total mass [kg]. Default 1.
+    #[serde(default = "one")]
+    pub mass: f64,
+    /// Membrane stiffness E·h [N/m]. Default 2000.
+    #[serde(default = "default_stiffness")]
+    pub stiffness: f64,
+    /// Damping ratio. Default 0.05.
+    #[serde(default = "default_damping")]
+    pub damping_ratio: f64,
+    /// Bending membrane stiffness [N/m]; none: no bending springs.
+    #[serde(default)]
+    pub bending: Option<f64>,
+    /// Gas pressure at rest [Pa]; 0: no gas. Default 2000.
+    #[serde(default = "default_pressure")]
+    pub pressure: f64,
+    /// Strain limit of the springs (spring mode).
+    #[serde(default)]
+    pub strain_limit: Option<f64>,
+    /// Load limit of the vertices [N] (core mode).
+    #[serde(default)]
+    pub load_limit: Option<f64>,
+    /// Keep the gas when punctured.
+    #[serde(default)]
+    pub sealed: bool,
+}
+
+fn one() -> f64 {
+    1.0
+}
+fn default_stiffness() -> f64 {
+    2000.0
+}
+fn default_damping() -> f64 {
+    0.05
+}
+fn default_pressure() -> f64 {
+    2000.0
+}
+fn default_restitution() -> f32 {
+    0.3
+}
+fn default_friction() -> f32 {
+    0.4
+}
+
+/// `[[collider]]`.
+#[derive(Clone, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ColliderSection {
+    /// `ground`, `plane`, `ball`, `cuboid` or `capsule`.
+    pub shape: String,
+    /// Ground height [m].
+    #[serde(default)]
+    pub height: Option<f32>,
+    /// Plane point [m].
+    #[serde(default)]
+    pub point: Option<[f32; 3]>,
+    /// Plane normal.
+    #[serde(default)]
+    pub normal: Option<[f32; 3]>,
+    /// Ball or cuboid centre [m].
+    #[serde(default)]
+    pub center: Option<[f32; 3]>,
+    /// Ball or capsule radius [m].
+    #[serde(default)]
+    pub radius: Option<f32>,
+    /// Cuboid half extents [m].
+    #[serde(default)]
+    pub half_extents: Option<[f32; 3]>,
+    /// Capsule ends [m].
+    #[serde(default)]
+    pub a: Option<[f32; 3]>,
+    /// Capsule ends [m].
+    #[serde(default)]
+    pub b: Option<[f32; 3]>,
+    /// Restitution. Default 0.3.
+    #[serde(default = "default_restitution")]
+    pub restitution: f32,
+    /// Coulomb friction. Default 0.4.
+    #[serde(default = "default_friction")]
+    pub friction: f32,
+}
+
+/// `[wind]`.
+#[derive(Clone, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct WindSection {
+    /// Mean wind velocity [m/s].
+    pub velocity: [f64; 3],
+}
+
+fn v3(a: [f64; 3]) -> DVec3 {
+    DVec3::from_array(a)
+}
+fn f3(a: [f32; 3]) -> Vec3 {
+    Vec3::from_array(a)
+}
+
+impl Scene {
+    /// Reads and parses a scene file (nothing is built yet).
+    pub fn load(path: impl AsRef<Path>) -> Result<Scene, SceneError> {
+        let path = path.as_ref().to_path_buf();
+        let text = std::fs::read_to_string(&path).map_err(|source| SceneError::Io { path: path.clone(), source })?;
+        let mut scene = Scene::parse(&text, &path)?;
+        scene.path = path;
+        Ok(scene)
+    }
+
+    /// Parses scene text; `path` only names it in errors and resolves relative mesh files.
+    pub fn parse(text: &str, path: &Path) -> Result<Scene, SceneError> {
+        let mut scene: Scene =
+            toml::from_str(text).map_err(|e| SceneError::Parse { path: path.into(), message: e.to_string() })?;
+        scene.path = path.into();
+        scene.validate()?;
+        Ok(scene)
+    }
+
+    fn bad(&self, key: impl Into<String>, message: impl Into<String>) -> SceneError {
+        SceneError::Value { path: self.path.clone(), key: key.into(), message: message.into() }
+    }
+
+    fn validate(&self) -> Result<(), SceneError> {
+        if !(self.solver.dt.is_finite() && self.solver.dt > 0.0) {
+            return Err(self.bad("solver.dt", format!("must be > 0, got {}", self.solver.dt)));
+        }
+        if !(self.solver.duration.is_finite() && self.solver.duration >= 0.0) {
+            return Err(self.bad("solver.duration", format!("must be >= 0, got {}", self.solver.duration)));
+        }
+        self.integrator()?;
+        if let Some(w) = self.fracture.averaged_window
+            && !(w.is_finite() && w > 0.0)
+        {
+            return Err(self.bad("fracture.averaged_window", format!("must be > 0, got {w}")));
+        }
+        Ok(())
+    }
+
+    /// The integrator named in `[solver]`.
+    pub fn integrator(&self) -> Result<Integrator, SceneError> {
+        Integrator::ALL.iter().copied().find(|i| i.name() == self.solver.integrator).ok_or_else(|| {
+            self.bad(
+                "solver.integrator",
+                format!(
+                    "unknown integrator {:?}; one of symplectic_euler, velocity_verlet, rk4, implicit_euler",
+                    self.solver.integrator
+                ),
+            )
+        })
+    }
+
+    /// The fracture settings.
+    pub fn fracture_config(&self) -> FractureConfig {
+        let d = FractureConfig::default();
+        let f = &self.fracture;
+        FractureConfig {
+            trigger: f.averaged_window.map_or(Trigger::Instant, |window| Trigger::Averaged { window }),
+            max_events_per_step: f.max_events_per_step.unwrap_or(d.max_events_per_step),
+            discharge_coefficient: f.discharge_coefficient.unwrap_or(d.discharge_coefficient),
+            gas_density: f.gas_density.unwrap_or(d.gas_density),
+            start_time: f.start_time.unwrap_or(d.start_time),
+            ..d
+        }
+    }
+
+    /// The model builder of this scene.
+    pub fn builder(&self) -> Result<ModelBuilder, SceneError> {
+        let model_err =
+            |e: Box<dyn std::error::Error + Send + Sync>| SceneError::Model { path: self.path.clone(), source: e };
+        let mut b = ModelBuilder::new();
+        b.gravity(v3(self.solver.gravity));
+        for (k, body) in self.bodies.iter().enumerate() {
+            let key = |f: &str| format!("body[{k}].{f}");
+            let mesh = match body.shape.as_str() {
+                "icosphere" => {
+                    let r = body.radius.ok_or_else(|| self.bad(key("radius"), "is required for an icosphere"))?;
+                    if !(r.is_finite() && r > 0.0) {
+                        return Err(self.bad(key("radius"), format!("must be > 0, got {r}")));
+                    }
+                    let sub = body.subdivisions.unwrap_or(3);
+                    if sub > 7 {
+                        return Err(self.bad(key("subdivisions"), format!("at most 7, got {sub}")));
+                    }
+                    Mesh::icosphere(r, sub)
+                }
+                "cuboid" => {
+                    let h =
+                        body.half_extents.ok_or_else(|| self.bad(key("half_extents"), "is required for a cuboid"))?;
+                    Mesh::cuboid(v3(h), body.cells.unwrap_or(4).max(1))
+                }
+                "obj" => {
+                    let f = body.file.as_ref().ok_or_else(|| self.bad(key("file"), "is required for an obj"))?;
+                    let p = self.path.parent().unwrap_or(Path::new(".")).join(f);
+                    Mesh::load_obj(&p, Some(1e-6)).map_err(|e| model_err(Box::new(e)))?
+                }
+                other => {
+                    return Err(
+                        self.bad(key("shape"), format!("unknown shape {other:?}; one of icosphere, cuboid, obj"))
+                    );
+                }
+            };
+            let fracture =
+                (body.strain_limit.is_some() || body.load_limit.is_some() || body.sealed).then(|| Breakable {
+                    strain_limit: body.strain_limit.unwrap_or(f64::INFINITY),
+                    load_limit: body.load_limit.unwrap_or(f64::INFINITY),
+                    sealed: body.sealed,
+                });
+            let opts = SoftBodyOptions {
+                mass: Mass::Total(body.mass),
+                stiffness: Stiffness::Membrane(body.stiffness),
+                damping: Damping::Ratio(body.damping_ratio),
+                bending: body.bending.map(Stiffness::Membrane),
+                gas: if body.pressure > 0.0 { Gas::Pressure(body.pressure) } else { Gas::None },
+                velocity: v3(body.velocity),
+                fracture,
+                ..Default::default()
+            };
+            b.add_soft_body(&mesh.translated(v3(body.position)), &opts).map_err(|e| SceneError::Value {
+                path: self.path.clone(),
+                key: format!("body[{k}]"),
+                message: e.to_string(),
+            })?;
+        }
+        if let Some(h) = self.room_half_width {
+            if !(h.is_finite() && h > 0.0) {
+                return Err(self.bad("room_half_width", format!("must be > 0, got {h}")));
+            }
+            crate::scenes::room(&mut b, h);
+        }
+        for (k, c) in self.colliders.iter().enumerate() {
+            let key = |f: &str| format!("collider[{k}].{f}");
+            let need3 = |v: Option<[f32; 3]>, f: &str| {
+                v.map(f3).ok_or_else(|| self.bad(key(f), format!("is required for a {}", c.shape)))
+            };
+            let need = |v: Option<f32>, f: &str| {
+                let x = v.ok_or_else(|| self.bad(key(f), format!("is required for a {}", c.shape)))?;
+                if x.is_finite() && x > 0.0 { Ok(x) } else { Err(self.bad(key(f), format!("must be > 0, got {x}"))) }
+            };
+            let col = match c.shape.as_str() {
+                "ground" => Collider::ground(c.height.unwrap_or(0.0)),
+                "plane" => Collider::plane(need3(c.point, "point")?, need3(c.normal, "normal")?),
+                "ball" => Collider::ball(need3(c.center, "center")?, need(c.radius, "radius")?),
+                "cuboid" => Collider::cuboid(need3(c.center, "center")?, need3(c.half_extents, "half_extents")?),
+                "capsule" => Collider::capsule(need3(c.a, "a")?, need3(c.b, "b")?, need(c.radius, "radius")?),
+                other => {
+                    return Err(self.bad(
+                        key("shape"),
+                        format!("unknown shape {other:?}; one of ground, plane, ball, cuboid, capsule"),
+                    ));
+                }
+            };
+            for (f, v) in [("restitution", c.restitution), ("friction", c.friction)] {
+                if !(v.is_finite() && v >= 0.0) {
+                    return Err(self.bad(key(f), format!("must be >= 0, got {v}")));
+                }
+            }
+            b.add_collider(col.with_restitution(c.restitution).with_friction(c.friction));
+        }
+        if let Some(w) = &self.wind {
+            b.wind(WindField { velocity: v3(w.velocity), ..Default::default() });
+        }
+        Ok(b)
+    }
+
+    /// Builds the world: model, state, solver and fracture pass.
+    pub fn world<R: Real>(&self) -> Result<World<R>, SceneError> {
+        let model = self
+            .builder()?
+            .finalize::<R>()
+            .map_err(|e| SceneError::Model { path: self.path.clone(), source: Box::new(e) })?;
+        Ok(World::new(model, SolverConfig::with(self.integrator()?)).with_fracture(self.fracture_config()))
+    }
+}
