@@ -18,6 +18,8 @@ pub struct Csr {
     pub items: Vec<u32>,
     /// Items in slots that no row owns any more.
     pub garbage: usize,
+    /// Items in rows (the sum of `len`).
+    pub live: usize,
 }
 
 impl Csr {
@@ -41,7 +43,7 @@ impl Csr {
             items[*slot as usize] = it;
             *slot += 1;
         }
-        Csr { start, cap: len.clone(), len, items, garbage: 0 }
+        Csr { start, cap: len.clone(), len, live: acc as usize, items, garbage: 0 }
     }
 
     /// Number of rows.
@@ -79,6 +81,7 @@ impl Csr {
         let at = (self.start[i] + self.len[i]) as usize;
         self.items[at] = item;
         self.len[i] += 1;
+        self.live += 1;
     }
 
     /// Removes the first occurrence of `item` from row `i`, keeping the order of the others; false if absent.
@@ -88,6 +91,7 @@ impl Csr {
             Some(k) => {
                 self.items.copy_within(s + k + 1..s + l, s + k);
                 self.len[i] -= 1;
+                self.live -= 1;
                 true
             }
             None => false,
@@ -108,8 +112,7 @@ impl Csr {
 
     /// Packs the rows back to back (row order and item order kept) if unused slots outweigh the live items.
     pub fn compact_if_sparse(&mut self) {
-        let live: usize = self.len.iter().map(|&l| l as usize).sum();
-        if self.garbage > live.max(1024) {
+        if self.garbage > self.live.max(1024) {
             self.compact();
         }
     }

@@ -292,13 +292,28 @@ impl<R: Real> Fracture<R> {
         events
     }
 
-    fn begin(&mut self, m: &Model<R>) {
+    /// Sizes the pass for `m` and fixes the mass floor (`min_mass_ratio` times the lightest particle with
+    /// triangles). Done on first use; call it ahead to keep that O(model) work out of the first split.
+    pub fn prepare(&mut self, m: &Model<R>) {
         if self.mass_floor.is_none() {
             let lightest = (0..m.particle_count())
                 .filter(|&i| !m.particle_tris.row(i).is_empty())
                 .map(|i| m.particle_mass[i])
                 .fold(R::infinity(), |a, b| a.min(b));
             self.mass_floor = Some(lightest * R::from_f64(self.config.min_mass_ratio));
+        }
+        let n = m.particle_count();
+        if self.touched.len() < n {
+            self.touched.resize(n + n / 4, self.step_gen.wrapping_sub(1));
+        }
+        if self.mark.len() < n {
+            self.mark.resize(n + n / 4, 0);
+        }
+    }
+
+    fn begin(&mut self, m: &Model<R>) {
+        if self.mass_floor.is_none() {
+            self.prepare(m);
         }
         self.delta = TopologyDelta {
             old_counts: [m.particle_count(), m.spring_count(), m.tri_count(), m.body_count()],

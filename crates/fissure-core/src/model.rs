@@ -1078,6 +1078,32 @@ impl<R: Real> Model<R> {
         self.breakable = self.compute_breakable();
     }
 
+    /// Reserves room for `particles`, `springs` and `triangles` more (fracture appends them), so that growing
+    /// does not reallocate mid-simulation.
+    pub fn reserve(&mut self, particles: usize, springs: usize, triangles: usize) {
+        self.particle_q0.reserve(particles);
+        self.particle_qd0.reserve(particles);
+        self.particle_mass.reserve(particles);
+        self.particle_inv_mass.reserve(particles);
+        self.particle_body.reserve(particles);
+        self.particle_load_limit.reserve(particles);
+        for c in [&mut self.particle_springs, &mut self.particle_tris] {
+            c.start.reserve(particles);
+            c.len.reserve(particles);
+            c.cap.reserve(particles);
+        }
+        self.particle_springs.items.reserve(8 * springs);
+        self.particle_tris.items.reserve(12 * triangles);
+        self.spring_indices.reserve(springs);
+        self.spring_rest_length.reserve(springs);
+        self.spring_stiffness.reserve(springs);
+        self.spring_damping.reserve(springs);
+        self.spring_kind.reserve(springs);
+        self.spring_strain_limit.reserve(springs);
+        self.tri_indices.reserve(triangles);
+        self.tri_body.reserve(triangles);
+    }
+
     /// True when the springs form long runs (average ≥ 16), so the run kernel is used.
     pub fn springs_are_runs(&self) -> bool {
         !self.spring_runs.is_empty() && self.spring_count() >= 16 * self.spring_runs.len()
