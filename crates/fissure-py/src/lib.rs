@@ -17,7 +17,7 @@ use fissure::{
     Model as RModel, ModelBuilder as RBuilder, SolverConfig, Stage, State as RState, Stiffness, WindField,
 };
 use numpy::{PyArray2, PyArrayDescrMethods, PyArrayMethods, PyUntypedArray, PyUntypedArrayMethods};
-use pyo3::exceptions::{PyTypeError, PyValueError};
+use pyo3::exceptions::{PyIndexError, PyTypeError, PyValueError};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 
@@ -910,29 +910,133 @@ impl Solver {
     }
 }
 
-/// A model, its state and a solver, stepped together.
+/// A model, its state, a solver and the fracture pass, stepped together.
 #[pyclass(module = "fissure._fissure")]
 pub struct World {
     model: Py<Model>,
     state: Py<State>,
     solver: Py<Solver>,
+    fracture: fissure::Fracture<f32>,
+    events: Vec<fissure::FractureEvent>,
+}
+
+fn event_dict<'py>(py: Python<'py>, e: &fissure::FractureEvent) -> PyResult<Bound<'py, PyDict>> {
+    let d = PyDict::new(py);
+    let kind = match e.kind {
+        fissure::FractureKind::Spring => "spring",
+        fissure::FractureKind::Core => "core",
+        fissure::FractureKind::Detach => "detach",
+    };
+    d.set_item("kind", kind)?;
+    d.set_item("time", e.time)?;
+    d.set_item("position", (e.position.x, e.position.y, e.position.z))?;
+    d.set_item("body", e.body)?;
+    d.set_item("spring", e.spring)?;
+    d.set_item("vertex", e.vertex)?;
+    d.set_item("new_particles", e.new_particles.clone())?;
+    d.set_item("new_body", e.new_body)?;
+    Ok(d)
+}
+
+impl World {
+    /// Steps with the GIL released; returns the number of new fracture events.
+    fn run(&mut self, py: Python<'_>, mut dts: impl FnMut(f64) -> Option<f64> + Send) -> PyResult<usize> {
+        let mut model = self.model.borrow_mut(py);
+        let mut state = self.state.borrow_mut(py);
+        let mut solver = self.solver.borrow_mut(py);
+        model.check(&state)?;
+        let (m, s, sv) = (&mut model.inner, &mut state.inner, &mut solver.inner);
+        let (fr, events) = (&mut self.fracture, &mut self.events);
+        let before = events.len();
+        py.detach(|| {
+            while let Some(dt) = dts(s.time) {
+                fissure::Solver::step(sv, m, s, dt)?;
+                if fr.needed(m) {
+                    let new = fr.apply(m, s, dt);
+                    if !new.is_empty() || !fr.last_delta().is_empty() {
+                        fissure::Solver::notify_model_changed(sv, m);
+                    }
+                    events.extend(new);
+                }
+            }
+            Ok::<(), fissure::StepError>(())
+        })
+        .map_err(value_err)?;
+        Ok(self.events.len() - before)
+    }
+
+    fn cut<'py>(&mut self, py: Python<'py>, index: usize, core: bool) -> PyResult<Vec<Bound<'py, PyDict>>> {
+        let mut model = self.model.borrow_mut(py);
+        let mut state = self.state.borrow_mut(py);
+        model.check(&state)?;
+        let (m, s) = (&mut model.inner, &mut state.inner);
+        let count = if core { m.particle_count() } else { m.spring_count() };
+        if index >= count {
+            let what = if core { "particle" } else { "spring" };
+            return Err(PyIndexError::new_err(format!("{what} {index} out of range (model has {count})")));
+        }
+        let new = if core { self.fracture.break_core(m, s, index) } else { self.fracture.break_spring(m, s, index) };
+        if !new.is_empty() {
+            fissure::Solver::notify_model_changed(&mut self.solver.borrow_mut(py).inner, m);
+        }
+        let out = new.iter().map(|e| event_dict(py, e)).collect::<PyResult<Vec<_>>>()?;
+        self.events.extend(new);
+        Ok(out)
+    }
 }
 
 #[pymethods]
 impl World {
-    /// A world at the model's initial state.
+    /// A world at the model's initial state. Fracture settings (used when the model has breakable bodies):
+    /// `max_events_per_step`, `averaged_window` [s] (None: instantaneous trigger), `discharge_coefficient`,
+    /// `gas_density` [kg/m^3], `start_time` [s].
     #[new]
-    #[pyo3(signature = (model, *, integrator = Integrator::SYMPLECTIC_EULER, cg_tolerance = 1e-5, cg_max_iterations = 200))]
+    #[pyo3(signature = (model, *, integrator = Integrator::SYMPLECTIC_EULER, cg_tolerance = 1e-5, cg_max_iterations = 200,
+        max_events_per_step = 32, averaged_window = None, discharge_coefficient = 0.6, gas_density = 1.2,
+        start_time = 0.0))]
+    #[allow(clippy::too_many_arguments)]
     fn new(
         py: Python<'_>,
         model: Py<Model>,
         integrator: Integrator,
         cg_tolerance: f64,
         cg_max_iterations: usize,
+        max_events_per_step: usize,
+        averaged_window: Option<f64>,
+        discharge_coefficient: f64,
+        gas_density: f64,
+        start_time: f64,
     ) -> PyResult<Self> {
+        if let Some(w) = averaged_window
+            && !(w.is_finite() && w > 0.0)
+        {
+            return Err(PyValueError::new_err(format!("averaged_window must be > 0, got {w}")));
+        }
+        for (name, v) in [("discharge_coefficient", discharge_coefficient), ("gas_density", gas_density)] {
+            if !(v.is_finite() && v > 0.0) {
+                return Err(PyValueError::new_err(format!("{name} must be > 0, got {v}")));
+            }
+        }
+        if !start_time.is_finite() {
+            return Err(PyValueError::new_err(format!("start_time must be finite, got {start_time}")));
+        }
         let state = model.borrow(py).state();
         let solver = Solver::new(integrator, cg_tolerance, cg_max_iterations)?;
-        Ok(World { model, state: Py::new(py, state)?, solver: Py::new(py, solver)? })
+        let config = fissure::FractureConfig {
+            trigger: averaged_window.map_or(fissure::Trigger::Instant, |window| fissure::Trigger::Averaged { window }),
+            max_events_per_step,
+            discharge_coefficient,
+            gas_density,
+            start_time,
+            ..Default::default()
+        };
+        Ok(World {
+            model,
+            state: Py::new(py, state)?,
+            solver: Py::new(py, solver)?,
+            fracture: fissure::Fracture::new(config),
+            events: Vec::new(),
+        })
     }
 
     /// The model.
@@ -955,35 +1059,55 @@ impl World {
     fn time(&self, py: Python<'_>) -> f64 {
         self.state.borrow(py).inner.time
     }
-
-    /// `steps` steps of `dt` [s], GIL released.
-    #[pyo3(signature = (dt, steps = 1))]
-    fn step(&self, py: Python<'_>, dt: f64, steps: usize) -> PyResult<()> {
-        let model = self.model.borrow(py);
-        let mut state = self.state.borrow_mut(py);
-        self.solver.borrow_mut(py).step(py, &model, &mut state, dt, steps)
+    /// Every fracture event so far, as dicts: `kind` ("spring", "core" or "detach"), `time` [s], `position` [m],
+    /// `body`, `spring`, `vertex`, `new_particles`, `new_body`.
+    #[getter]
+    fn events<'py>(&self, py: Python<'py>) -> PyResult<Vec<Bound<'py, PyDict>>> {
+        self.events.iter().map(|e| event_dict(py, e)).collect()
     }
 
-    /// Advances by `duration` [s] in steps of at most `dt` [s], GIL released.
-    fn advance(&self, py: Python<'_>, duration: f64, dt: f64) -> PyResult<()> {
+    /// `steps` steps of `dt` [s] (each followed by the fracture pass), GIL released. Returns the number of new
+    /// fracture events.
+    #[pyo3(signature = (dt, steps = 1))]
+    fn step(&mut self, py: Python<'_>, dt: f64, steps: usize) -> PyResult<usize> {
+        let mut left = steps;
+        self.run(py, move |_| {
+            if left == 0 {
+                return None;
+            }
+            left -= 1;
+            Some(dt)
+        })
+    }
+
+    /// Advances by `duration` [s] in steps of at most `dt` [s], GIL released. Returns the number of new fracture
+    /// events.
+    fn advance(&mut self, py: Python<'_>, duration: f64, dt: f64) -> PyResult<usize> {
         if !(dt.is_finite() && dt > 0.0 && duration.is_finite() && duration >= 0.0) {
             return Err(PyValueError::new_err(format!(
                 "need dt > 0 and duration >= 0, got dt = {dt}, duration = {duration}"
             )));
         }
-        let model = self.model.borrow(py);
-        let mut state = self.state.borrow_mut(py);
-        let mut solver = self.solver.borrow_mut(py);
-        let (m, s, sv) = (&model.inner, &mut state.inner, &mut solver.inner);
-        py.detach(|| {
-            let end = s.time + duration;
-            while s.time < end - 1e-12 {
-                let h = dt.min(end - s.time);
-                fissure::Solver::step(sv, m, s, h)?;
-            }
-            Ok::<(), fissure::StepError>(())
-        })
-        .map_err(value_err)
+        let end = self.state.borrow(py).inner.time + duration;
+        self.run(py, move |t| (t < end - 1e-12).then(|| dt.min(end - t)))
+    }
+
+    /// Breaks spring `index` now (a cut), whatever its strain; returns the events (empty if it could not break).
+    fn break_spring<'py>(&mut self, py: Python<'py>, index: usize) -> PyResult<Vec<Bound<'py, PyDict>>> {
+        self.cut(py, index, false)
+    }
+
+    /// Breaks particle `index` out as a core block now (a puncture); returns the events (empty if it could not:
+    /// pinned, on or next to an opening, or an odd valence).
+    fn break_core<'py>(&mut self, py: Python<'py>, index: usize) -> PyResult<Vec<Bound<'py, PyDict>>> {
+        self.cut(py, index, true)
+    }
+
+    /// Seconds spent per stage (solver stages and `fracture`), with `total` and `steps`.
+    fn timers<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
+        let mut t = fissure::Solver::timers(&self.solver.borrow(py).inner).clone();
+        t.merge_stages(self.fracture.timers());
+        timers_dict(py, &t)
     }
 }
 

@@ -28,3 +28,11 @@ def test_cloth_wind_example(tmp_path):
     r = load("cloth_wind").main(frames=30, n=12, out=str(tmp_path))
     assert r["downwind"] > 0.02, "the cloth should be pushed downwind"
     assert (tmp_path / "last.obj").exists()
+
+
+def test_fracture_example():
+    r = load("fracture").main(duration=0.4)
+    kinds = [e["kind"] for e in r["events"]]
+    assert len(kinds) >= 3 and "core" in kinds
+    assert r["bodies"] > 1, "a core block becomes its own body"
+    assert r["volume_end"] < r["volume_at_puncture"], "the punctured ball deflates"

@@ -94,3 +94,22 @@ def test_ball_comes_to_rest_on_ground_with_implicit_euler():
     assert 0.17 < com[1] < 0.21
     t = world.solver.timers()
     assert t["steps"] == 720 and t["solve"] > 0.0 and t["collide"] > 0.0
+
+
+def test_fracture_conserves_mass_and_reports_events():
+    b = fissure.ModelBuilder(gravity=(0.0, 0.0, 0.0))
+    b.add_soft_body(fissure.Mesh.icosphere(0.2, 2), pressure=1000.0, strain_limit=0.5, load_limit=100.0)
+    model = b.finalize()
+    world = fissure.World(model)
+    m0 = model.total_mass()
+    ev = world.break_core(5)
+    assert [e["kind"] for e in ev] == ["core"] and ev[0]["new_body"] == 1
+    ev = world.break_spring(100)
+    assert ev and ev[0]["kind"] == "spring" and len(ev[0]["new_particles"]) == 2
+    assert model.body_count == 2
+    assert abs(model.total_mass() - m0) < 1e-6 * m0
+    assert world.state.positions.shape == (model.particle_count, 3)
+    world.step(1e-4, steps=10)
+    assert len(world.events) == 2
+    with pytest.raises(IndexError):
+        world.break_core(10**6)

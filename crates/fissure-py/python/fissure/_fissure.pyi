@@ -81,6 +81,9 @@ class ModelBuilder:
         drag: float = 0.0,
         lift: float = 0.0,
         reorient: bool = True,
+        strain_limit: float | None = None,
+        load_limit: float | None = None,
+        sealed: bool = False,
     ) -> dict[str, int]: ...
     def add_cloth(
         self,
@@ -97,6 +100,8 @@ class ModelBuilder:
         pins: Sequence[int] = ...,
         drag: float = 1.0,
         lift: float = 0.5,
+        strain_limit: float | None = None,
+        load_limit: float | None = None,
     ) -> dict[str, int]: ...
     def add_cloth_grid(
         self,
@@ -117,6 +122,8 @@ class ModelBuilder:
         pins: Sequence[int] = ...,
         drag: float = 1.0,
         lift: float = 0.5,
+        strain_limit: float | None = None,
+        load_limit: float | None = None,
     ) -> dict[str, int]: ...
     def add_ground(
         self, height: float = 0.0, *, restitution: float = 0.3, friction: float = 0.4, margin: float = 0.0
@@ -206,7 +213,18 @@ class Solver:
 
 @final
 class World:
-    def __new__(cls, model: Model, *, integrator: Integrator = ..., cg_tolerance: float = 1e-5, cg_max_iterations: int = 200
+    def __new__(
+        cls,
+        model: Model,
+        *,
+        integrator: Integrator = ...,
+        cg_tolerance: float = 1e-5,
+        cg_max_iterations: int = 200,
+        max_events_per_step: int = 32,
+        averaged_window: float | None = None,
+        discharge_coefficient: float = 0.6,
+        gas_density: float = 1.2,
+        start_time: float = 0.0,
     ) -> World: ...
     @property
     def model(self) -> Model: ...
@@ -216,5 +234,10 @@ class World:
     def solver(self) -> Solver: ...
     @property
     def time(self) -> float: ...
-    def step(self, dt: float, steps: int = 1) -> None: ...
-    def advance(self, duration: float, dt: float) -> None: ...
+    @property
+    def events(self) -> list[dict[str, Any]]: ...
+    def step(self, dt: float, steps: int = 1) -> int: ...
+    def advance(self, duration: float, dt: float) -> int: ...
+    def break_spring(self, index: int) -> list[dict[str, Any]]: ...
+    def break_core(self, index: int) -> list[dict[str, Any]]: ...
+    def timers(self) -> dict[str, Any]: ...
