@@ -271,22 +271,22 @@ impl<R: Real> Fracture<R> {
     /// Breaks spring `sp` now (spring mode, or removal if it is on no triangle), whatever its strain: for
     /// cutting tools and tests. Empty if it cannot break (already broken, shorter than the minimum).
     pub fn break_spring(&mut self, m: &mut Model<R>, s: &mut State<R>, sp: usize) -> Vec<FractureEvent> {
-        self.begin(m);
-        let mut events = Vec::new();
-        if sp < m.spring_count() {
-            self.split_spring(m, s, sp as u32, &mut events);
-        }
-        self.finish(m);
-        events
+        self.break_now(m, s, sp, false)
     }
 
     /// Breaks particle `v` out as a core block now, whatever its load: a puncture. Empty if it cannot (pinned,
     /// on or next to a boundary, valence outside 3..=64, a spoke that is not a spring).
     pub fn break_core(&mut self, m: &mut Model<R>, s: &mut State<R>, v: usize) -> Vec<FractureEvent> {
+        self.break_now(m, s, v, true)
+    }
+
+    fn break_now(&mut self, m: &mut Model<R>, s: &mut State<R>, index: usize, core: bool) -> Vec<FractureEvent> {
         self.begin(m);
         let mut events = Vec::new();
-        if v < m.particle_count() {
-            self.split_core(m, s, v as u32, &mut events);
+        if core && index < m.particle_count() {
+            self.split_core(m, s, index as u32, &mut events);
+        } else if !core && index < m.spring_count() {
+            self.split_spring(m, s, index as u32, &mut events);
         }
         self.finish(m);
         events
