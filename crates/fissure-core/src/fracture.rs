@@ -359,13 +359,7 @@ impl<R: Real> Fracture<R> {
             let [i, j] = m.spring_indices[sp];
             let l0 = m.spring_rest_length[sp];
             let strain = ((q[j as usize] - q[i as usize]).length() - l0) / l0;
-            let v = if alpha >= 1.0 {
-                strain
-            } else {
-                let a = &mut self.spring_avg[sp];
-                *a += (strain - *a) * R::from_f64(alpha);
-                *a
-            };
+            let v = triggered(&mut self.spring_avg[sp], strain, alpha);
             if v > lim {
                 self.candidates.push(((v / lim).to_f64(), 0, sp as u32));
             }
@@ -373,8 +367,8 @@ impl<R: Real> Fracture<R> {
         let n = m.particle_count();
         self.particle_avg.resize(n, R::ZERO);
         if m.particle_load_limit.iter().any(|l| l.is_finite()) {
-            // Each spring's elastic force and each triangle's gas force on each corner, once; then per particle
-            // the sum over its springs and triangles.
+            // The load: |net elastic force| on the particle, its springs' `ks (l - L0) d̂` and its share of the gas
+            // pressure. Each spring's and each triangle's term once, then per particle the sum over its rows.
             self.spring_force.clear();
             self.spring_force.extend(m.spring_indices.iter().enumerate().map(|(sp, &[i, j])| {
                 let d = q[j as usize].to_dvec3() - q[i as usize].to_dvec3();
@@ -413,14 +407,7 @@ impl<R: Real> Fracture<R> {
                         f += self.tri_force[t as usize];
                     }
                 }
-                let load = R::from_f64(f.length());
-                let v = if alpha >= 1.0 {
-                    load
-                } else {
-                    let a = &mut self.particle_avg[i];
-                    *a += (load - *a) * R::from_f64(alpha);
-                    *a
-                };
+                let v = triggered(&mut self.particle_avg[i], R::from_f64(f.length()), alpha);
                 if v > lim {
                     self.candidates.push(((v / lim).to_f64(), 1, i as u32));
                 }
@@ -429,23 +416,13 @@ impl<R: Real> Fracture<R> {
         self.candidates.sort_by(|a, b| b.0.total_cmp(&a.0).then(a.1.cmp(&b.1)).then(a.2.cmp(&b.2)));
     }
 
-    /// Gas pressure of each body [Pa] (capped volumes), computed at most once per call of [`Fracture::apply`].
+    /// Net gas pressure of each body [Pa] (capped volumes, volumes computed at most once per call of
+    /// [`Fracture::apply`]).
     fn pressures(&mut self, m: &Model<R>, s: &State<R>) -> Vec<f64> {
-        if self.volumes.is_empty() {
+        if self.volumes.len() != m.body_count() {
             self.volumes = m.body_volumes(s);
         }
-        self.volumes
-            .iter()
-            .enumerate()
-            .map(|(b, &v)| {
-                let g = m.body_gas_amount[b].to_f64();
-                if g > 0.0 {
-                    g / v.max(1e-3 * m.body_rest_volume[b].to_f64()) - m.body_pressure_external[b].to_f64()
-                } else {
-                    0.0
-                }
-            })
-            .collect()
+        (0..m.body_count()).map(|b| m.gas_pressure(b, self.volumes[b]) - m.body_pressure_external[b].to_f64()).collect()
     }
 
     fn heavy_enough(&self, mass: R) -> bool {
@@ -867,15 +844,15 @@ impl<R: Real> Fracture<R> {
         if self.volumes.len() != m.body_count() {
             self.volumes = m.body_volumes(s);
         }
-        let vols = &self.volumes;
         for b in bodies {
             let bu = b as usize;
             let gas = m.body_gas_amount[bu].to_f64();
             if gas <= 0.0 || m.body_sealed[bu] {
                 continue;
             }
-            let v = vols[bu].max(1e-3 * m.body_rest_volume[bu].to_f64()).max(1e-30);
-            let dp = gas / v - m.body_pressure_external[bu].to_f64();
+            // The volume as the force pass clamps it, and the pressure difference across the openings.
+            let v = self.volumes[bu].max(1e-3 * m.body_rest_volume[bu].to_f64());
+            let dp = m.gas_pressure(bu, v) - m.body_pressure_external[bu].to_f64();
             if dp <= 0.0 {
                 continue;
             }
@@ -886,38 +863,14 @@ impl<R: Real> Fracture<R> {
     }
 }
 
-/// `|net elastic force|` on particle `i` [N]: its springs' `ks (l - L0)` terms and its share of the gas pressure
-/// (`pressures` per body, as from [`Model::body_pressures`]; empty: none). This is the core mode's load.
-pub fn elastic_load<R: Real>(m: &Model<R>, s: &State<R>, pressures: &[f64], i: usize) -> f64 {
-    let q = &s.particle_q;
-    let mut f = spring_elastic_force(m, s, i);
-    if !pressures.is_empty() {
-        for &t in m.particle_tris.row(i) {
-            let p = pressures[m.tri_body[t as usize] as usize];
-            if p != 0.0 {
-                let [a, b, c] = m.tri_indices[t as usize].map(|v| q[v as usize].to_dvec3());
-                f += (b - a).cross(c - a) * (p / 6.0);
-            }
-        }
+/// The trigger's value for a new sample `x`: `x` itself (instantaneous, `alpha = 1`), or the exponential moving
+/// average `avg` updated by `alpha`.
+fn triggered<R: Real>(avg: &mut R, x: R, alpha: f64) -> R {
+    if alpha >= 1.0 {
+        return x;
     }
-    f.length()
-}
-
-/// Sum of the elastic forces `ks (l - L0) d̂` of particle `i`'s springs [N].
-fn spring_elastic_force<R: Real>(m: &Model<R>, s: &State<R>, i: usize) -> DVec3 {
-    let q = &s.particle_q;
-    let xi = q[i].to_dvec3();
-    let mut f = DVec3::ZERO;
-    for &e in m.particle_springs.row(i) {
-        let sp = (e >> 1) as usize;
-        let w = m.spring_indices[sp][1 - (e & 1) as usize] as usize;
-        let d = q[w].to_dvec3() - xi;
-        let l = d.length();
-        if l > 0.0 {
-            f += d / l * (m.spring_stiffness[sp].to_f64() * (l - m.spring_rest_length[sp].to_f64()));
-        }
-    }
-    f
+    *avg += (x - *avg) * R::from_f64(alpha);
+    *avg
 }
 
 fn tri_has<R: Real>(m: &Model<R>, t: u32, v: u32) -> bool {

@@ -1005,14 +1005,14 @@ impl<R: Real> Model<R> {
 
     /// Gas pressure `nRT / V` of each body [Pa] (0 without gas).
     pub fn body_pressures(&self, state: &State<R>) -> Vec<f64> {
-        self.body_volumes(state)
-            .iter()
-            .enumerate()
-            .map(|(b, &v)| {
-                let g = self.body_gas_amount[b].to_f64();
-                if g > 0.0 { g / v.max(1e-3 * self.body_rest_volume[b].to_f64()) } else { 0.0 }
-            })
-            .collect()
+        self.body_volumes(state).iter().enumerate().map(|(b, &v)| self.gas_pressure(b, v)).collect()
+    }
+
+    /// Gas pressure `nRT / V` [Pa] of body `b` at volume `v` [m^3] (clamped at 1e-3 of the rest volume, as the
+    /// force pass does); 0 without gas.
+    pub fn gas_pressure(&self, b: usize, v: f64) -> f64 {
+        let g = self.body_gas_amount[b].to_f64();
+        if g > 0.0 { g / v.max(1e-3 * self.body_rest_volume[b].to_f64()) } else { 0.0 }
     }
 
     /// Linear momentum [kg·m/s] of the free particles, `f64`.
