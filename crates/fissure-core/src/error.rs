@@ -164,4 +164,7 @@ pub enum StepError {
         /// Final relative residual.
         residual: f64,
     },
+    /// A solver backend (the GPU) failed: device lost, read-back failed, model not supported.
+    #[error("solver backend failed: {0}")]
+    Backend(String),
 }

@@ -1,0 +1,68 @@
+//! Creating a device for users who do not bring their own (the solver itself never creates one).
+
+use crate::GpuError;
+
+/// A wgpu device and queue with the adapter they came from.
+#[derive(Clone, Debug)]
+pub struct GpuContext {
+    /// The device.
+    pub device: wgpu::Device,
+    /// Its queue.
+    pub queue: wgpu::Queue,
+    /// What the adapter says about itself (name, backend, driver).
+    pub info: wgpu::AdapterInfo,
+}
+
+impl GpuContext {
+    /// A device on the best adapter: a discrete or integrated GPU when there is one, otherwise a software device
+    /// (lavapipe). Requests the adapter's own limits (the kernels bind 21 storage buffers). The environment
+    /// variable `WGPU_BACKEND` (e.g. `vulkan`) restricts the backends tried.
+    pub fn new() -> Result<Self, GpuError> {
+        pollster::block_on(Self::new_async())
+    }
+
+    async fn new_async() -> Result<Self, GpuError> {
+        let mut desc = wgpu::InstanceDescriptor::new_without_display_handle_from_env();
+        if std::env::var_os("WGPU_BACKEND").is_none() {
+            desc.backends = wgpu::Backends::PRIMARY;
+        }
+        let backends = desc.backends;
+        let instance = wgpu::Instance::new(desc);
+        let mut adapters = instance.enumerate_adapters(backends).await;
+        if adapters.is_empty() {
+            return Err(GpuError::NoAdapter { details: format!("backends tried: {backends:?}") });
+        }
+        // Real hardware first: discrete, integrated, virtual, then CPU (software) devices.
+        let rank = |t: wgpu::DeviceType| match t {
+            wgpu::DeviceType::DiscreteGpu => 0,
+            wgpu::DeviceType::IntegratedGpu => 1,
+            wgpu::DeviceType::VirtualGpu => 2,
+            wgpu::DeviceType::Other => 3,
+            wgpu::DeviceType::Cpu => 4,
+        };
+        adapters.sort_by_key(|a| rank(a.get_info().device_type));
+        let adapter = adapters.swap_remove(0);
+        let info = adapter.get_info();
+        let (device, queue) = adapter
+            .request_device(&wgpu::DeviceDescriptor {
+                label: Some("fissure"),
+                required_features: wgpu::Features::empty(),
+                required_limits: adapter.limits(),
+                ..Default::default()
+            })
+            .await
+            .map_err(|e| GpuError::Device { adapter: info.name.clone(), message: e.to_string() })?;
+        Ok(GpuContext { device, queue, info })
+    }
+
+    /// `"name (backend, device type)"`, for benchmark output.
+    pub fn describe(&self) -> String {
+        format!("{} ({:?}, {:?})", self.info.name, self.info.backend, self.info.device_type)
+    }
+}
+
+/// What tests do without an adapter: with `CI` set (to anything but `false` or `0`) a missing adapter is a
+/// failure (CI installs lavapipe, so its absence is a broken CI), elsewhere the caller skips loudly.
+pub fn adapter_required() -> bool {
+    std::env::var("CI").map(|v| !v.is_empty() && v != "false" && v != "0").unwrap_or(false)
+}

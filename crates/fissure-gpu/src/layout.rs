@@ -1,0 +1,372 @@
+//! Buffer layouts shared with `shaders/common.wgsl` (same field order; every struct is `Pod`, 16-byte multiple),
+//! the packing of a [`Model`] into them, and [`Mirror`]: a GPU buffer with a host copy that uploads only what
+//! changed.
+
+use bytemuck::{Pod, Zeroable};
+use fissure_core::collision::Collider;
+use fissure_core::{DampingModel, Model, SpringKind, Vector3};
+
+use crate::GpuError;
+use crate::sdf::SdfGrid;
+
+/// Sentinel of "no index" in the kernels (`NONE` in WGSL).
+pub const NONE: u32 = u32::MAX;
+
+/// The uniform of every kernel (`Params` in WGSL).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct Params {
+    /// xyz gravity [m/s^2]; w 1 for projected damping, 0 for unprojected.
+    pub gravity: [f32; 4],
+    /// particles, springs, triangles, bodies.
+    pub counts: [u32; 4],
+    /// colliders, gas bodies, openings with caps, volume partial rows.
+    pub counts2: [u32; 4],
+    /// xyz mean wind [m/s]; w air density [kg/m^3] (0 without wind).
+    pub wind_u: [f32; 4],
+    /// gust amplitude, gust frequency [Hz], gust wavelength [m], crosswind fraction.
+    pub wind_p: [f32; 4],
+    /// candidate capacity per kind, triangle forces present, caps present, 0.
+    pub misc: [u32; 4],
+}
+
+/// One clock entry (`Clock` in WGSL), stored at a 256-byte stride and selected by a dynamic offset.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct Clock {
+    /// Time [s].
+    pub time: f32,
+    /// Step [s].
+    pub dt: f32,
+    /// Padding.
+    pub pad: [f32; 2],
+}
+
+/// Stride of the clock entries [bytes] (the largest `min_uniform_buffer_offset_alignment` allowed).
+pub const CLOCK_STRIDE: u64 = 256;
+
+/// `Particle` in WGSL.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct GpuParticle {
+    /// Mass [kg].
+    pub mass: f32,
+    /// Inverse mass [1/kg], 0 pinned.
+    pub inv_mass: f32,
+    /// Body, or [`NONE`].
+    pub body: u32,
+    /// Load limit [N], negative for none.
+    pub load_limit: f32,
+}
+
+/// `Spring` in WGSL.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct GpuSpring {
+    /// End 0.
+    pub i: u32,
+    /// End 1.
+    pub j: u32,
+    /// Rest length [m].
+    pub rest: f32,
+    /// Stiffness [N/m].
+    pub ks: f32,
+    /// Damping [N s/m].
+    pub kd: f32,
+    /// Strain limit, negative for none (or broken).
+    pub strain_limit: f32,
+    /// Padding.
+    pub pad: [u32; 2],
+}
+
+/// `Body` in WGSL.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct GpuBody {
+    /// nRT [J].
+    pub gas: f32,
+    /// Outside pressure [Pa].
+    pub p_ext: f32,
+    /// Rest volume [m^3].
+    pub rest_volume: f32,
+    /// Drag coefficient.
+    pub drag: f32,
+    /// Lift coefficient.
+    pub lift: f32,
+    /// Anchor particle of the volume sum.
+    pub anchor: u32,
+    /// Index among the gas bodies, or [`NONE`].
+    pub gas_slot: u32,
+    /// Padding.
+    pub pad: u32,
+}
+
+/// `Collider` in WGSL.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct GpuCollider {
+    /// kind, grid offset, 0, 0.
+    pub head: [u32; 4],
+    /// restitution, threshold [m/s], friction, margin [m].
+    pub material: [f32; 4],
+    /// Translation at time 0 [m].
+    pub translation: [f32; 4],
+    /// Rotation at time 0 (x, y, z, w).
+    pub rotation: [f32; 4],
+    /// Linear velocity [m/s].
+    pub linear_velocity: [f32; 4],
+    /// Angular velocity [rad/s].
+    pub angular_velocity: [f32; 4],
+    /// Shape parameters (see the WGSL).
+    pub a: [f32; 4],
+    /// Shape parameters (see the WGSL).
+    pub b: [f32; 4],
+    /// Reserved.
+    pub reserved: [f32; 4],
+}
+
+/// Collider kinds of the kernels.
+pub mod kind {
+    /// Half-space.
+    pub const HALF_SPACE: u32 = 0;
+    /// Ball.
+    pub const BALL: u32 = 1;
+    /// Cuboid.
+    pub const CUBOID: u32 = 2;
+    /// Capsule.
+    pub const CAPSULE: u32 = 3;
+    /// Signed-distance grid.
+    pub const GRID: u32 = 4;
+}
+
+fn v4(v: glam::Vec3, w: f32) -> [f32; 4] {
+    [v.x, v.y, v.z, w]
+}
+
+/// The model packed for the kernels (host side of every model buffer).
+#[derive(Clone, Debug, Default)]
+pub(crate) struct Packed {
+    pub particles: Vec<GpuParticle>,
+    pub rows: Vec<[u32; 4]>,
+    pub adj: Vec<u32>,
+    pub springs: Vec<GpuSpring>,
+    pub tris: Vec<[u32; 4]>,
+    pub bodies: Vec<GpuBody>,
+    pub openings: Vec<u32>,
+    pub cap_rows: Vec<[u32; 2]>,
+    pub cap_items: Vec<[u32; 2]>,
+    pub n_gas: u32,
+    pub n_caps: u32,
+    pub any_strain_limit: bool,
+    pub any_load_limit: bool,
+}
+
+impl Packed {
+    pub fn new(m: &Model<f32>) -> Self {
+        let mut p = Packed::default();
+        p.particles.extend((0..m.particle_count()).map(|i| {
+            let lim = m.particle_load_limit[i];
+            GpuParticle {
+                mass: m.particle_mass[i],
+                inv_mass: m.particle_inv_mass[i],
+                body: m.particle_body[i],
+                load_limit: if lim.is_finite() { lim } else { -1.0 },
+            }
+        }));
+        p.any_load_limit = p.particles.iter().any(|q| q.load_limit >= 0.0);
+        let (sp, tr) = (&m.particle_springs, &m.particle_tris);
+        let off = sp.items.len() as u32;
+        p.rows.extend((0..m.particle_count()).map(|i| [sp.start[i], sp.len[i], tr.start[i] + off, tr.len[i]]));
+        p.adj.extend_from_slice(&sp.items);
+        p.adj.extend_from_slice(&tr.items);
+        p.springs.extend((0..m.spring_count()).map(|s| {
+            let [i, j] = m.spring_indices[s];
+            let lim = m.spring_strain_limit[s];
+            let live = m.spring_kind[s] != SpringKind::Broken;
+            GpuSpring {
+                i,
+                j,
+                rest: m.spring_rest_length[s],
+                ks: m.spring_stiffness[s],
+                kd: m.spring_damping[s],
+                strain_limit: if live && lim.is_finite() { lim } else { -1.0 },
+                pad: [0; 2],
+            }
+        }));
+        p.any_strain_limit = p.springs.iter().any(|s| s.strain_limit >= 0.0);
+        p.tris.extend(m.tri_indices.iter().zip(&m.tri_body).map(|(t, &b)| [t[0], t[1], t[2], b]));
+        let mut gas_bodies = Vec::new();
+        p.bodies.extend((0..m.body_count()).map(|b| {
+            let gas = m.body_gas_amount[b];
+            let slot = if gas > 0.0 {
+                gas_bodies.push(b as u32);
+                gas_bodies.len() as u32 - 1
+            } else {
+                NONE
+            };
+            GpuBody {
+                gas,
+                p_ext: m.body_pressure_external[b],
+                rest_volume: m.body_rest_volume[b],
+                drag: m.body_drag[b],
+                lift: m.body_lift[b],
+                anchor: m.body_anchor[b],
+                gas_slot: slot,
+                pad: 0,
+            }
+        }));
+        p.n_gas = gas_bodies.len() as u32;
+        // Openings buffer: gas bodies by slot, then a header per capped opening, then the loops' vertices.
+        let capped: Vec<_> = m.openings.iter().filter(|o| m.body_gas_amount[o.body as usize] > 0.0).collect();
+        p.n_caps = capped.len() as u32;
+        p.openings = gas_bodies;
+        let mut first = p.openings.len() as u32 + 4 * p.n_caps;
+        for o in &capped {
+            p.openings.extend_from_slice(&[o.body, first, o.vertices.len() as u32, 0]);
+            first += o.vertices.len() as u32;
+        }
+        for o in &capped {
+            p.openings.extend_from_slice(&o.vertices);
+        }
+        if p.n_caps > 0 {
+            let mut per: Vec<Vec<[u32; 2]>> = vec![Vec::new(); m.particle_count()];
+            for (k, o) in capped.iter().enumerate() {
+                for (at, &v) in o.vertices.iter().enumerate() {
+                    per[v as usize].push([k as u32, at as u32]);
+                }
+            }
+            for items in per {
+                p.cap_rows.push([p.cap_items.len() as u32, items.len() as u32]);
+                p.cap_items.extend(items);
+            }
+        }
+        p
+    }
+}
+
+/// The uniform for `m`; `rows` is the number of partial-sum rows of the triangle dispatch.
+pub(crate) fn params(m: &Model<f32>, p: &Packed, rows: u32, capacity: u32) -> Params {
+    let g = m.gravity.to_vec3();
+    let projected = if m.damping_model == DampingModel::Projected { 1.0 } else { 0.0 };
+    let surface = m.has_pressure() || m.has_wind();
+    let (wind_u, wind_p) = match (&m.wind, m.has_wind()) {
+        (Some(w), true) => (
+            v4(w.velocity.as_vec3(), w.air_density as f32),
+            [w.gust_amplitude as f32, w.gust_frequency as f32, w.gust_wavelength as f32, w.crosswind as f32],
+        ),
+        _ => ([0.0; 4], [0.0; 4]),
+    };
+    Params {
+        gravity: v4(g, projected),
+        counts: [m.particle_count() as u32, m.spring_count() as u32, m.tri_count() as u32, m.body_count() as u32],
+        counts2: [m.colliders.len() as u32, p.n_gas, p.n_caps, rows],
+        wind_u,
+        wind_p,
+        misc: [capacity, surface as u32, (p.n_caps > 0) as u32, 0],
+    }
+}
+
+/// Colliders packed for the kernels; triangle meshes and other general shapes are baked into `sdf`.
+pub(crate) fn pack_colliders(
+    colliders: &[Collider],
+    cells: u32,
+    sdf: &mut Vec<f32>,
+) -> Result<Vec<GpuCollider>, GpuError> {
+    let mut out = Vec::with_capacity(colliders.len());
+    for (index, c) in colliders.iter().enumerate() {
+        let mut g = GpuCollider {
+            material: [c.restitution, c.restitution_threshold, c.friction, c.margin],
+            translation: v4(c.pose.translation, 0.0),
+            rotation: c.pose.rotation.to_array(),
+            linear_velocity: v4(c.linear_velocity, 0.0),
+            angular_velocity: v4(c.angular_velocity, 0.0),
+            ..Default::default()
+        };
+        let s = &c.shape;
+        if let Some(h) = s.as_halfspace() {
+            g.head[0] = kind::HALF_SPACE;
+            g.a = v4(h.normal, 0.0);
+        } else if let Some(b) = s.as_ball() {
+            g.head[0] = kind::BALL;
+            g.a = [b.radius, 0.0, 0.0, 0.0];
+        } else if let Some(b) = s.as_cuboid() {
+            g.head[0] = kind::CUBOID;
+            g.a = v4(b.half_extents, 0.0);
+        } else if let Some(b) = s.as_capsule() {
+            g.head[0] = kind::CAPSULE;
+            g.a = v4(b.segment.a, b.radius);
+            g.b = v4(b.segment.b, 0.0);
+        } else {
+            let grid =
+                SdfGrid::bake(s.as_ref(), cells, c.margin).map_err(|message| GpuError::Collider { index, message })?;
+            g.head = [kind::GRID, sdf.len() as u32, 0, 0];
+            g.a = v4(grid.origin, grid.cell);
+            g.b = [grid.dims[0] as f32, grid.dims[1] as f32, grid.dims[2] as f32, 0.0];
+            sdf.extend_from_slice(&grid.values);
+        }
+        out.push(g);
+    }
+    Ok(out)
+}
+
+/// A GPU buffer mirrored on the host: [`Mirror::sync`] writes only the blocks that differ from what was uploaded
+/// last (a memory compare on the host, then one write per changed block), and reallocates with 25 % room when the
+/// data outgrows the buffer. After a fracture event this uploads a few blocks per array instead of the model.
+pub(crate) struct Mirror<T: Pod> {
+    pub host: Vec<T>,
+    pub buffer: wgpu::Buffer,
+    capacity: usize,
+    label: &'static str,
+    usage: wgpu::BufferUsages,
+}
+
+/// Elements compared (and written) at a time.
+const BLOCK: usize = 256;
+
+impl<T: Pod> Mirror<T> {
+    pub fn new(device: &wgpu::Device, queue: &wgpu::Queue, label: &'static str, data: &[T]) -> Self {
+        let usage = wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::COPY_SRC;
+        let capacity = data.len().max(1);
+        let buffer = create(device, label, capacity * size_of::<T>(), usage);
+        queue.write_buffer(&buffer, 0, bytemuck::cast_slice(data));
+        Mirror { host: data.to_vec(), buffer, capacity, label, usage }
+    }
+
+    /// Makes the GPU copy equal `data`. Returns `(reallocated, bytes written)`; a reallocated buffer needs new
+    /// bind groups.
+    pub fn sync(&mut self, device: &wgpu::Device, queue: &wgpu::Queue, data: &[T]) -> (bool, usize) {
+        if data.len() > self.capacity {
+            self.capacity = data.len() + data.len() / 4;
+            self.buffer = create(device, self.label, self.capacity * size_of::<T>(), self.usage);
+            queue.write_buffer(&self.buffer, 0, bytemuck::cast_slice(data));
+            self.host.clear();
+            self.host.extend_from_slice(data);
+            return (true, std::mem::size_of_val(data));
+        }
+        let mut written = 0;
+        let mut k = 0;
+        while k < data.len() {
+            let end = (k + BLOCK).min(data.len());
+            let new = bytemuck::cast_slice::<T, u8>(&data[k..end]);
+            let same = end <= self.host.len() && bytemuck::cast_slice::<T, u8>(&self.host[k..end]) == new;
+            if !same {
+                queue.write_buffer(&self.buffer, (k * size_of::<T>()) as u64, new);
+                written += new.len();
+            }
+            k = end;
+        }
+        self.host.clear();
+        self.host.extend_from_slice(data);
+        (false, written)
+    }
+}
+
+pub(crate) fn create(device: &wgpu::Device, label: &str, bytes: usize, usage: wgpu::BufferUsages) -> wgpu::Buffer {
+    device.create_buffer(&wgpu::BufferDescriptor {
+        label: Some(label),
+        // Bindings may not be empty; 16 bytes is the smallest useful size.
+        size: (bytes.max(16) as u64).next_multiple_of(16),
+        usage,
+        mapped_at_creation: false,
+    })
+}

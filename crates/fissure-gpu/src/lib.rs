@@ -1,0 +1,142 @@
+//! # fissure-gpu
+//!
+//! The wgpu compute backend of fissure: springs, gravity, the closed pressure model, wind, symplectic Euler and
+//! velocity Verlet, and collisions run as WGSL kernels (`shaders/` at the workspace root), with the CPU engine
+//! of `fissure-core` as their reference. Fracture stays on the CPU: a kernel flags the springs and vertices past
+//! their limits, and only then is the state read back and the topology changed by `fissure_core::fracture`
+//! (unchanged); the solver then re-uploads what changed.
+//!
+//! ```no_run
+//! use fissure_core::glam::DVec3;
+//! use fissure_core::*;
+//! use fissure_gpu::{GpuConfig, GpuContext, GpuSolver};
+//!
+//! let mut b = ModelBuilder::new();
+//! let ball = Mesh::icosphere(0.2, 3).translated(DVec3::new(0.0, 1.0, 0.0));
+//! b.add_soft_body(&ball, &SoftBodyOptions { gas: Gas::Pressure(3000.0), ..Default::default() })?;
+//! b.add_collider(Collider::ground(0.0));
+//! let model: Model<f32> = b.finalize()?;
+//! let ctx = GpuContext::new()?; // or bring your own wgpu::Device and Queue
+//! let mut gpu = GpuSolver::new(ctx.device.clone(), ctx.queue.clone(), &model, GpuConfig::default())?;
+//! gpu.run(&model, 1e-4, 100)?; // 100 substeps in one submission, nothing read back
+//! let mut state = model.state();
+//! gpu.read_state(&mut state)?;
+//! # Ok::<(), Box<dyn std::error::Error>>(())
+//! ```
+//!
+//! Precision: the kernels run in `f32`. Per-step forces agree with the CPU `f32` forces to a few ulps of the
+//! largest force term (the sums run in a different order: CSR order on both, but the CPU sums spring runs in
+//! blocks); trajectories agree to the tolerances stated in `tests/gpu.rs`.
+#![warn(missing_docs)]
+
+mod context;
+mod layout;
+pub mod sdf;
+mod solver;
+
+pub use context::{GpuContext, adapter_required};
+pub use layout::{GpuBody, GpuCollider, GpuParticle, GpuSpring, Params};
+pub use sdf::SdfGrid;
+pub use solver::{Candidates, GpuConfig, GpuSolver, RunReport};
+pub use wgpu;
+
+/// The WGSL files of the solver, in the order they are concatenated after `common.wgsl`.
+pub const SHADERS: [(&str, &str); 4] = [
+    ("integrate.wgsl", include_str!("../../../shaders/integrate.wgsl")),
+    ("surface.wgsl", include_str!("../../../shaders/surface.wgsl")),
+    ("collide.wgsl", include_str!("../../../shaders/collide.wgsl")),
+    ("fracture.wgsl", include_str!("../../../shaders/fracture.wgsl")),
+];
+
+/// The declarations every kernel file shares (bindings, structs, helpers).
+pub const COMMON_WGSL: &str = include_str!("../../../shaders/common.wgsl");
+
+/// The complete source of a kernel file: `common.wgsl` followed by the file.
+pub fn shader_source(file: &str) -> String {
+    format!("{COMMON_WGSL}\n{file}")
+}
+
+/// What can go wrong on the GPU path.
+#[derive(Debug, thiserror::Error)]
+pub enum GpuError {
+    /// No adapter at all.
+    #[error(
+        "no GPU adapter found ({details}). Install a Vulkan driver: on Debian or Ubuntu `apt install mesa-vulkan-drivers` (it includes lavapipe, a software Vulkan device that works without a GPU); elsewhere your GPU vendor's driver"
+    )]
+    NoAdapter {
+        /// What was tried.
+        details: String,
+    },
+    /// The adapter refused a device.
+    #[error("could not create a device on {adapter}: {message}")]
+    Device {
+        /// Adapter name.
+        adapter: String,
+        /// The driver's message.
+        message: String,
+    },
+    /// A device limit is below what the kernels need.
+    #[error(
+        "the device allows {have} for {limit}, the solver needs {need}; request the adapter's limits (GpuContext does)"
+    )]
+    Limit {
+        /// Which limit.
+        limit: &'static str,
+        /// The device's value.
+        have: u64,
+        /// Needed.
+        need: u64,
+    },
+    /// The integrator has no GPU kernels.
+    #[error(
+        "the GPU solver runs symplectic Euler and velocity Verlet; {0} runs on the CPU solver only (fissure_core::CpuSolver)"
+    )]
+    UnsupportedIntegrator(&'static str),
+    /// A collider could not be prepared.
+    #[error("collider {index}: {message}")]
+    Collider {
+        /// Its index in the model.
+        index: usize,
+        /// Why.
+        message: String,
+    },
+    /// A state of another size.
+    #[error("state has {state} particles but the model has {model}")]
+    StateMismatch {
+        /// Particles in the state.
+        state: usize,
+        /// Particles in the model.
+        model: usize,
+    },
+    /// The time step is not positive and finite.
+    #[error("time step must be positive and finite, got {0}")]
+    BadTimeStep(f64),
+    /// The state became NaN or infinite.
+    #[error(
+        "state blew up between t = {from:.6} s and t = {to:.6} s (a non-finite velocity); the time step {dt:e} s is probably above the stability limit (try more substeps or softer springs)"
+    )]
+    NonFinite {
+        /// Time at the start of the submission.
+        from: f64,
+        /// Time at its end.
+        to: f64,
+        /// The step.
+        dt: f64,
+    },
+    /// Mapping a buffer for reading failed (device lost).
+    #[error("reading back from the GPU failed: {0}")]
+    Readback(String),
+}
+
+impl From<GpuError> for fissure_core::StepError {
+    fn from(e: GpuError) -> Self {
+        match e {
+            GpuError::BadTimeStep(dt) => fissure_core::StepError::BadTimeStep(dt),
+            GpuError::StateMismatch { state, model } => fissure_core::StepError::StateMismatch { state, model },
+            GpuError::NonFinite { to, dt, .. } => {
+                fissure_core::StepError::NonFinite { time: to, dt, particle: 0, what: "velocity" }
+            }
+            e => fissure_core::StepError::Backend(e.to_string()),
+        }
+    }
+}

@@ -1,0 +1,907 @@
+//! [`GpuSolver`]: the model and state live in GPU buffers; a submission encodes many substeps; nothing is read back
+//! unless asked for (the state), or needed (a 16-byte status word: the non-finite flag and the fracture candidate
+//! counters, read only when `check_finite` is on or the model can break).
+//!
+//! A substep encodes only what the model needs (DESIGN.md, "work a scene doesn't need is not done"):
+//!
+//! | kernel | when |
+//! |---|---|
+//! | `surface_cross`, `surface_force` | gas or wind |
+//! | `surface_caps` | a gas body with openings |
+//! | `surface_volume` | gas |
+//! | `integrate_symplectic_euler` or `integrate_verlet_first` + `integrate_verlet_second` | always |
+//! | `collide` | colliders |
+//! | `strain_check` / `load_check` | breakable springs / vertices |
+//!
+//! [`GpuSolver::passes`] lists what the last submission encoded, in order.
+
+use std::sync::mpsc;
+use std::time::Instant;
+
+use fissure_core::{Fracture, FractureEvent, Integrator, Model, Solver, StageTimers, State, StepError};
+use glam::Vec3;
+
+use crate::layout::{self, CLOCK_STRIDE, Clock, GpuCollider, Mirror, Packed, Params};
+use crate::{GpuError, SHADERS, shader_source};
+
+/// Storage buffers one kernel binds (bindings 1 to 21 of `common.wgsl`).
+const STORAGE_BINDINGS: u32 = 21;
+/// Workgroup size of every kernel.
+const WG: u32 = 64;
+/// Largest workgroup count along one dispatch dimension (WebGPU's guaranteed minimum).
+const MAX_GROUPS: u32 = 65535;
+
+/// GPU solver settings.
+#[derive(Clone, Debug, PartialEq)]
+pub struct GpuConfig {
+    /// Symplectic Euler (default) or velocity Verlet; the others are CPU-only.
+    pub integrator: Integrator,
+    /// Read the status word after each submission and fail with [`GpuError::NonFinite`] if a velocity became
+    /// NaN or infinite. Default true; the cost is one 16-byte read-back per submission, not per substep.
+    pub check_finite: bool,
+    /// Fracture candidates kept per kind per submission (the counters count past it). Default 4096.
+    pub candidate_capacity: u32,
+    /// Cells along the longest side of a baked signed-distance grid (triangle-mesh colliders). Default 64.
+    pub sdf_cells: u32,
+}
+
+impl Default for GpuConfig {
+    fn default() -> Self {
+        GpuConfig {
+            integrator: Integrator::SymplecticEuler,
+            check_finite: true,
+            candidate_capacity: 4096,
+            sdf_cells: 64,
+        }
+    }
+}
+
+/// What a submission found (zeros where it did not look).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct RunReport {
+    /// Substeps run.
+    pub steps: usize,
+    /// Springs flagged past their strain limit (summed over substeps, may repeat).
+    pub spring_candidates: u32,
+    /// Vertices flagged past their load limit (summed over substeps, may repeat).
+    pub vertex_candidates: u32,
+}
+
+/// The fracture candidates of the last submission, sorted, without repeats.
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub struct Candidates {
+    /// Springs past their strain limit.
+    pub springs: Vec<u32>,
+    /// Vertices past their load limit.
+    pub vertices: Vec<u32>,
+    /// More were flagged than the capacity holds (the lists are incomplete).
+    pub overflow: bool,
+}
+
+struct Pipelines {
+    by_name: Vec<(&'static str, wgpu::ComputePipeline)>,
+}
+
+impl Pipelines {
+    fn get(&self, name: &str) -> &wgpu::ComputePipeline {
+        &self.by_name.iter().find(|(n, _)| *n == name).expect("every kernel is created with the solver").1
+    }
+}
+
+/// Buffers that depend on the model's size (everything but the state and the mirrors).
+struct Scratch {
+    tri_cross: wgpu::Buffer,
+    tri_f: wgpu::Buffer,
+    body_state: wgpu::Buffer,
+    partials: wgpu::Buffer,
+    cap_data: wgpu::Buffer,
+    /// (triangles, bodies, partial floats, openings) they hold.
+    sized: [usize; 4],
+}
+
+/// The wgpu solver (f32). See the module docs.
+pub struct GpuSolver {
+    device: wgpu::Device,
+    queue: wgpu::Queue,
+    /// Settings (the integrator is fixed at creation).
+    config: GpuConfig,
+    pipelines: Pipelines,
+    layout0: wgpu::BindGroupLayout,
+    clock_bind: wgpu::BindGroup,
+    clock: wgpu::Buffer,
+    clock_capacity: usize,
+    params: wgpu::Buffer,
+    params_host: Params,
+    q: [wgpu::Buffer; 2],
+    qd: [wgpu::Buffer; 2],
+    state_capacity: usize,
+    particles: Mirror<layout::GpuParticle>,
+    rows: Mirror<[u32; 4]>,
+    adj: Mirror<u32>,
+    springs: Mirror<layout::GpuSpring>,
+    tris: Mirror<[u32; 4]>,
+    bodies: Mirror<layout::GpuBody>,
+    openings: Mirror<u32>,
+    cap_rows: Mirror<[u32; 2]>,
+    cap_items: Mirror<[u32; 2]>,
+    colliders: Mirror<GpuCollider>,
+    sdf: Mirror<f32>,
+    scratch: Scratch,
+    candidates: wgpu::Buffer,
+    status: wgpu::Buffer,
+    bind: [wgpu::BindGroup; 2],
+    /// Which of the two state buffers holds the current state.
+    cur: usize,
+    packed: Packed,
+    particle_count: usize,
+    time: f64,
+    /// The state must be uploaded before the next run (particles were added).
+    state_stale: bool,
+    passes: Vec<&'static str>,
+    last_upload: usize,
+    timers: StageTimers,
+}
+
+fn storage(binding: u32, read_only: bool) -> wgpu::BindGroupLayoutEntry {
+    wgpu::BindGroupLayoutEntry {
+        binding,
+        visibility: wgpu::ShaderStages::COMPUTE,
+        ty: wgpu::BindingType::Buffer {
+            ty: wgpu::BufferBindingType::Storage { read_only },
+            has_dynamic_offset: false,
+            min_binding_size: None,
+        },
+        count: None,
+    }
+}
+
+fn uniform(binding: u32, dynamic: bool) -> wgpu::BindGroupLayoutEntry {
+    wgpu::BindGroupLayoutEntry {
+        binding,
+        visibility: wgpu::ShaderStages::COMPUTE,
+        ty: wgpu::BindingType::Buffer {
+            ty: wgpu::BufferBindingType::Uniform,
+            has_dynamic_offset: dynamic,
+            min_binding_size: wgpu::BufferSize::new(size_of::<Clock>() as u64),
+        },
+        count: None,
+    }
+}
+
+/// Read-write bindings of `common.wgsl`; every other storage binding is read-only.
+const READ_WRITE: [u32; 8] = [3, 4, 10, 11, 13, 14, 20, 21];
+
+/// Workgroups for `n` invocations as a 2-D grid (the kernels flatten it with `flat_index`).
+fn groups(n: usize) -> (u32, u32) {
+    let g = (n as u32).div_ceil(WG).max(1);
+    let x = g.min(MAX_GROUPS);
+    (x, g.div_ceil(x))
+}
+
+fn scratch(device: &wgpu::Device, m: &Model<f32>, p: &Packed) -> Scratch {
+    let surface = m.has_pressure() || m.has_wind();
+    let nt = if surface { m.tri_count() } else { 0 };
+    let (gx, gy) = groups(m.tri_count());
+    let np = if p.n_gas > 0 { (gx * gy * p.n_gas) as usize } else { 0 };
+    let want = [nt, m.body_count(), np, p.n_caps as usize];
+    let grow = |n: usize| n + n / 4;
+    let sized = want.map(grow);
+    let rw = wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::COPY_SRC;
+    Scratch {
+        tri_cross: layout::create(device, "tri_cross", sized[0] * 16, rw),
+        tri_f: layout::create(device, "tri_f", sized[0] * 16, rw),
+        body_state: layout::create(device, "body_state", sized[1] * 16, rw),
+        partials: layout::create(device, "partials", sized[2] * 4, rw),
+        cap_data: layout::create(device, "cap_data", sized[3] * 32, rw),
+        sized,
+    }
+}
+
+impl GpuSolver {
+    /// A solver for `model` at its initial state, on a device the caller created (see
+    /// [`crate::GpuContext`] for one way). Fails when the integrator has no kernels, the device's limits are too
+    /// small, or a collider cannot be baked.
+    pub fn new(
+        device: wgpu::Device,
+        queue: wgpu::Queue,
+        model: &Model<f32>,
+        config: GpuConfig,
+    ) -> Result<Self, GpuError> {
+        match config.integrator {
+            Integrator::SymplecticEuler | Integrator::VelocityVerlet => {}
+            other => return Err(GpuError::UnsupportedIntegrator(other.name())),
+        }
+        let limits = device.limits();
+        if limits.max_storage_buffers_per_shader_stage < STORAGE_BINDINGS {
+            return Err(GpuError::Limit {
+                limit: "max_storage_buffers_per_shader_stage",
+                have: limits.max_storage_buffers_per_shader_stage as u64,
+                need: STORAGE_BINDINGS as u64,
+            });
+        }
+        let mut entries = vec![uniform(0, false)];
+        entries[0].ty = wgpu::BindingType::Buffer {
+            ty: wgpu::BufferBindingType::Uniform,
+            has_dynamic_offset: false,
+            min_binding_size: wgpu::BufferSize::new(size_of::<Params>() as u64),
+        };
+        entries.extend((1..=STORAGE_BINDINGS).map(|b| storage(b, !READ_WRITE.contains(&b))));
+        let layout0 = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("fissure model+state"),
+            entries: &entries,
+        });
+        let layout1 = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("fissure clock"),
+            entries: &[uniform(0, true)],
+        });
+        let pl = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+            label: Some("fissure"),
+            bind_group_layouts: &[Some(&layout0), Some(&layout1)],
+            immediate_size: 0,
+        });
+        let mut by_name = Vec::new();
+        for (file, src) in SHADERS {
+            let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
+                label: Some(file),
+                source: wgpu::ShaderSource::Wgsl(shader_source(src).into()),
+            });
+            for entry in entry_points(src) {
+                let p = device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+                    label: Some(entry),
+                    layout: Some(&pl),
+                    module: &module,
+                    entry_point: Some(entry),
+                    compilation_options: Default::default(),
+                    cache: None,
+                });
+                by_name.push((entry, p));
+            }
+        }
+        let packed = Packed::new(model);
+        let mut sdf_host = Vec::new();
+        let colliders_host = layout::pack_colliders(&model.colliders, config.sdf_cells, &mut sdf_host)?;
+        let rows = Mirror::new(&device, &queue, "rows", &packed.rows);
+        let particles = Mirror::new(&device, &queue, "particles", &packed.particles);
+        let adj = Mirror::new(&device, &queue, "adj", &packed.adj);
+        let springs = Mirror::new(&device, &queue, "springs", &packed.springs);
+        let tris = Mirror::new(&device, &queue, "tris", &packed.tris);
+        let bodies = Mirror::new(&device, &queue, "bodies", &packed.bodies);
+        let openings = Mirror::new(&device, &queue, "openings", &packed.openings);
+        let cap_rows = Mirror::new(&device, &queue, "cap_rows", &packed.cap_rows);
+        let cap_items = Mirror::new(&device, &queue, "cap_items", &packed.cap_items);
+        let colliders = Mirror::new(&device, &queue, "colliders", &colliders_host);
+        let sdf = Mirror::new(&device, &queue, "sdf", &sdf_host);
+        let n = model.particle_count();
+        let state_capacity = n + n / 4;
+        let su = wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::COPY_SRC;
+        let mkq = |l| layout::create(&device, l, state_capacity * 16, su);
+        let (q, qd) = ([mkq("q0"), mkq("q1")], [mkq("qd0"), mkq("qd1")]);
+        let params = layout::create(
+            &device,
+            "params",
+            size_of::<Params>(),
+            wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+        );
+        let cap = config.candidate_capacity.max(1);
+        let candidates = layout::create(&device, "candidates", (4 + 2 * cap as usize) * 4, su);
+        let status = layout::create(&device, "status", 16, wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST);
+        let clock_capacity = 64;
+        let clock = Self::clock_buffer(&device, clock_capacity);
+        let clock_bind = Self::clock_bind(&device, &layout1, &clock);
+        let scratch = scratch(&device, model, &packed);
+        let bind = Self::binds(
+            &device,
+            &layout0,
+            &params,
+            &q,
+            &qd,
+            [
+                &particles.buffer,
+                &rows.buffer,
+                &adj.buffer,
+                &springs.buffer,
+                &tris.buffer,
+                &bodies.buffer,
+                &colliders.buffer,
+                &sdf.buffer,
+                &openings.buffer,
+                &cap_rows.buffer,
+                &cap_items.buffer,
+            ],
+            &scratch,
+            &candidates,
+        );
+        let mut s = GpuSolver {
+            device,
+            queue,
+            config,
+            pipelines: Pipelines { by_name },
+            layout0,
+            clock_bind,
+            clock,
+            clock_capacity,
+            params,
+            params_host: Params::default(),
+            q,
+            qd,
+            state_capacity,
+            particles,
+            rows,
+            adj,
+            springs,
+            tris,
+            bodies,
+            openings,
+            cap_rows,
+            cap_items,
+            colliders,
+            sdf,
+            scratch,
+            candidates,
+            status,
+            bind,
+            cur: 0,
+            packed,
+            particle_count: n,
+            time: 0.0,
+            state_stale: false,
+            passes: Vec::new(),
+            last_upload: 0,
+            timers: StageTimers::default(),
+        };
+        s.write_params(model);
+        s.upload_state(&model.state())?;
+        Ok(s)
+    }
+
+    fn clock_buffer(device: &wgpu::Device, entries: usize) -> wgpu::Buffer {
+        layout::create(
+            device,
+            "clock",
+            entries * CLOCK_STRIDE as usize,
+            wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+        )
+    }
+
+    fn clock_bind(device: &wgpu::Device, layout: &wgpu::BindGroupLayout, clock: &wgpu::Buffer) -> wgpu::BindGroup {
+        device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("clock"),
+            layout,
+            entries: &[wgpu::BindGroupEntry {
+                binding: 0,
+                resource: wgpu::BindingResource::Buffer(wgpu::BufferBinding {
+                    buffer: clock,
+                    offset: 0,
+                    size: wgpu::BufferSize::new(size_of::<Clock>() as u64),
+                }),
+            }],
+        })
+    }
+
+    #[allow(clippy::too_many_arguments)]
+    fn binds(
+        device: &wgpu::Device,
+        layout: &wgpu::BindGroupLayout,
+        params: &wgpu::Buffer,
+        q: &[wgpu::Buffer; 2],
+        qd: &[wgpu::Buffer; 2],
+        m: [&wgpu::Buffer; 11],
+        s: &Scratch,
+        candidates: &wgpu::Buffer,
+    ) -> [wgpu::BindGroup; 2] {
+        let [particles, rows, adj, springs, tris, bodies, colliders, sdf, openings, cap_rows, cap_items] = m;
+        [0, 1].map(|cur| {
+            let other = 1 - cur;
+            let list: [(u32, &wgpu::Buffer); 22] = [
+                (0, params),
+                (1, &q[cur]),
+                (2, &qd[cur]),
+                (3, &q[other]),
+                (4, &qd[other]),
+                (5, particles),
+                (6, rows),
+                (7, adj),
+                (8, springs),
+                (9, tris),
+                (10, &s.tri_cross),
+                (11, &s.tri_f),
+                (12, bodies),
+                (13, &s.body_state),
+                (14, &s.partials),
+                (15, colliders),
+                (16, sdf),
+                (17, openings),
+                (18, cap_rows),
+                (19, cap_items),
+                (20, &s.cap_data),
+                (21, candidates),
+            ];
+            let entries: Vec<_> = list
+                .iter()
+                .map(|&(binding, b)| wgpu::BindGroupEntry { binding, resource: b.as_entire_binding() })
+                .collect();
+            device.create_bind_group(&wgpu::BindGroupDescriptor {
+                label: Some(if cur == 0 { "state 0 -> 1" } else { "state 1 -> 0" }),
+                layout,
+                entries: &entries,
+            })
+        })
+    }
+
+    fn rebind(&mut self) {
+        self.bind = Self::binds(
+            &self.device,
+            &self.layout0,
+            &self.params,
+            &self.q,
+            &self.qd,
+            [
+                &self.particles.buffer,
+                &self.rows.buffer,
+                &self.adj.buffer,
+                &self.springs.buffer,
+                &self.tris.buffer,
+                &self.bodies.buffer,
+                &self.colliders.buffer,
+                &self.sdf.buffer,
+                &self.openings.buffer,
+                &self.cap_rows.buffer,
+                &self.cap_items.buffer,
+            ],
+            &self.scratch,
+            &self.candidates,
+        );
+    }
+
+    fn write_params(&mut self, m: &Model<f32>) {
+        let (gx, gy) = groups(m.tri_count());
+        self.params_host = layout::params(m, &self.packed, gx * gy, self.config.candidate_capacity.max(1));
+        self.queue.write_buffer(&self.params, 0, bytemuck::bytes_of(&self.params_host));
+    }
+
+    /// The settings.
+    pub fn config(&self) -> &GpuConfig {
+        &self.config
+    }
+
+    /// The device's queue and device (for renderers drawing straight from [`GpuSolver::position_buffer`]).
+    pub fn device(&self) -> (&wgpu::Device, &wgpu::Queue) {
+        (&self.device, &self.queue)
+    }
+
+    /// The buffer holding the current positions (`vec4<f32>` per particle, w unused).
+    pub fn position_buffer(&self) -> &wgpu::Buffer {
+        &self.q[self.cur]
+    }
+
+    /// Simulation time of the GPU state [s].
+    pub fn time(&self) -> f64 {
+        self.time
+    }
+
+    /// The kernels the last submission encoded, in order (one entry per dispatch).
+    pub fn passes(&self) -> &[&'static str] {
+        &self.passes
+    }
+
+    /// Bytes written to model buffers by the last [`GpuSolver::notify_model_changed`] (or creation).
+    pub fn last_upload_bytes(&self) -> usize {
+        self.last_upload
+    }
+
+    /// Writes `state` (positions, velocities, time) to the GPU.
+    pub fn upload_state(&mut self, state: &State<f32>) -> Result<(), GpuError> {
+        let n = self.particle_count;
+        if state.particle_q.len() != n || state.particle_qd.len() != n {
+            return Err(GpuError::StateMismatch { state: state.particle_q.len(), model: n });
+        }
+        let pack = |v: &[Vec3]| v.iter().map(|x| [x.x, x.y, x.z, 0.0]).collect::<Vec<[f32; 4]>>();
+        self.queue.write_buffer(&self.q[self.cur], 0, bytemuck::cast_slice(&pack(&state.particle_q)));
+        self.queue.write_buffer(&self.qd[self.cur], 0, bytemuck::cast_slice(&pack(&state.particle_qd)));
+        self.time = state.time;
+        self.state_stale = false;
+        Ok(())
+    }
+
+    /// Reads the current positions, velocities and time into `state` (a synchronous read-back).
+    pub fn read_state(&mut self, state: &mut State<f32>) -> Result<(), GpuError> {
+        let n = self.particle_count;
+        let (q, qd) = (self.read_vec4(&self.q[self.cur], n)?, self.read_vec4(&self.qd[self.cur], n)?);
+        state.particle_q.clear();
+        state.particle_q.extend(q.iter().map(|v| Vec3::new(v[0], v[1], v[2])));
+        state.particle_qd.clear();
+        state.particle_qd.extend(qd.iter().map(|v| Vec3::new(v[0], v[1], v[2])));
+        state.time = self.time;
+        Ok(())
+    }
+
+    fn read_bytes(&self, src: &wgpu::Buffer, bytes: u64) -> Result<Vec<u8>, GpuError> {
+        let bytes = bytes.max(4).next_multiple_of(4);
+        let staging = layout::create(
+            &self.device,
+            "readback",
+            bytes as usize,
+            wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+        );
+        let mut enc = self.device.create_command_encoder(&Default::default());
+        enc.copy_buffer_to_buffer(src, 0, &staging, 0, bytes);
+        self.queue.submit([enc.finish()]);
+        self.map_read(&staging, bytes)
+    }
+
+    fn map_read(&self, staging: &wgpu::Buffer, bytes: u64) -> Result<Vec<u8>, GpuError> {
+        let (tx, rx) = mpsc::channel();
+        staging.map_async(wgpu::MapMode::Read, 0..bytes, move |r| {
+            let _ = tx.send(r);
+        });
+        self.device.poll(wgpu::PollType::wait_indefinitely()).map_err(|e| GpuError::Readback(e.to_string()))?;
+        rx.recv().map_err(|e| GpuError::Readback(e.to_string()))?.map_err(|e| GpuError::Readback(e.to_string()))?;
+        let out = staging.get_mapped_range(0..bytes).map_err(|e| GpuError::Readback(e.to_string()))?.to_vec();
+        staging.unmap();
+        Ok(out)
+    }
+
+    fn read_vec4(&self, src: &wgpu::Buffer, n: usize) -> Result<Vec<[f32; 4]>, GpuError> {
+        let bytes = self.read_bytes(src, (n * 16) as u64)?;
+        Ok(bytemuck::pod_collect_to_vec::<u8, [f32; 4]>(&bytes[..n * 16]))
+    }
+
+    fn ensure_clock(&mut self, entries: usize) {
+        if entries > self.clock_capacity {
+            self.clock_capacity = entries.next_power_of_two();
+            self.clock = Self::clock_buffer(&self.device, self.clock_capacity);
+            let layout1 = self.pipelines.get("integrate_symplectic_euler").get_bind_group_layout(1);
+            self.clock_bind = Self::clock_bind(&self.device, &layout1, &self.clock);
+        }
+    }
+
+    fn write_clock(&mut self, t0: f64, dt: f64, steps: usize) {
+        self.ensure_clock(2 * steps);
+        let mut bytes = vec![0u8; 2 * steps * CLOCK_STRIDE as usize];
+        for k in 0..2 * steps {
+            let t = t0 + (k / 2) as f64 * dt + if k % 2 == 1 { dt } else { 0.0 };
+            let c = Clock { time: t as f32, dt: dt as f32, pad: [0.0; 2] };
+            let at = k * CLOCK_STRIDE as usize;
+            bytes[at..at + size_of::<Clock>()].copy_from_slice(bytemuck::bytes_of(&c));
+        }
+        self.queue.write_buffer(&self.clock, 0, &bytes);
+    }
+
+    fn dispatch(
+        &mut self,
+        pass: &mut wgpu::ComputePass<'_>,
+        name: &'static str,
+        cur: usize,
+        clock: usize,
+        n: (u32, u32),
+    ) {
+        pass.set_pipeline(self.pipelines.get(name));
+        pass.set_bind_group(0, &self.bind[cur], &[]);
+        pass.set_bind_group(1, &self.clock_bind, &[(clock as u64 * CLOCK_STRIDE) as u32]);
+        pass.dispatch_workgroups(n.0, n.1, 1);
+        self.passes.push(name);
+    }
+
+    /// Encodes the surface pass on state buffer `cur` (with the clock entry `clock`): crosses and volume
+    /// partials, caps, volumes and pressures, and (`forces`) the per-corner forces.
+    fn encode_surface(
+        &mut self,
+        pass: &mut wgpu::ComputePass<'_>,
+        m: &Model<f32>,
+        cur: usize,
+        clock: usize,
+        forces: bool,
+    ) {
+        let nt = groups(m.tri_count());
+        self.dispatch(pass, "surface_cross", cur, clock, nt);
+        if self.packed.n_caps > 0 {
+            self.dispatch(pass, "surface_caps", cur, clock, groups(self.packed.n_caps as usize));
+        }
+        if self.packed.n_gas > 0 {
+            self.dispatch(pass, "surface_volume", cur, clock, (self.packed.n_gas, 1));
+        }
+        if forces {
+            self.dispatch(pass, "surface_force", cur, clock, nt);
+        }
+    }
+
+    fn encode_step(&mut self, pass: &mut wgpu::ComputePass<'_>, m: &Model<f32>, k: usize) {
+        let surface = m.has_pressure() || m.has_wind();
+        let np = groups(self.particle_count);
+        let (c0, c1) = (2 * k, 2 * k + 1);
+        let cur = self.cur;
+        match self.config.integrator {
+            Integrator::VelocityVerlet => {
+                if surface {
+                    self.encode_surface(pass, m, cur, c0, true);
+                }
+                self.dispatch(pass, "integrate_verlet_first", cur, c0, np);
+                if surface {
+                    self.encode_surface(pass, m, 1 - cur, c1, true);
+                }
+                self.dispatch(pass, "integrate_verlet_second", 1 - cur, c1, np);
+                if m.has_colliders() {
+                    self.dispatch(pass, "collide", 1 - cur, c1, np);
+                }
+            }
+            _ => {
+                if surface {
+                    self.encode_surface(pass, m, cur, c0, true);
+                }
+                self.dispatch(pass, "integrate_symplectic_euler", cur, c0, np);
+                if m.has_colliders() {
+                    self.dispatch(pass, "collide", cur, c1, np);
+                }
+                self.cur = 1 - cur;
+            }
+        }
+        if m.has_fracture() {
+            let cur = self.cur;
+            if self.packed.any_strain_limit {
+                self.dispatch(pass, "strain_check", cur, c1, groups(m.spring_count()));
+            }
+            if self.packed.any_load_limit {
+                if m.has_pressure() {
+                    self.encode_surface(pass, m, cur, c1, false);
+                }
+                self.dispatch(pass, "load_check", cur, c1, np);
+            }
+        }
+    }
+
+    fn check_model(&self, m: &Model<f32>) -> Result<(), GpuError> {
+        if m.particle_count() != self.particle_count {
+            return Err(GpuError::StateMismatch { state: self.particle_count, model: m.particle_count() });
+        }
+        if self.state_stale {
+            return Err(GpuError::Readback(
+                "the model gained particles: upload the state (GpuSolver::upload_state) before running".into(),
+            ));
+        }
+        Ok(())
+    }
+
+    /// Runs `steps` substeps of `dt` [s] in one submission. Reads back only the 16-byte status word, and only
+    /// when `check_finite` is on or the model can break.
+    pub fn run(&mut self, m: &Model<f32>, dt: f64, steps: usize) -> Result<RunReport, GpuError> {
+        if !(dt.is_finite() && dt > 0.0) {
+            return Err(GpuError::BadTimeStep(dt));
+        }
+        self.check_model(m)?;
+        let t0 = Instant::now();
+        let start = self.time;
+        self.write_clock(start, dt, steps);
+        self.passes.clear();
+        let mut enc = self.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("run") });
+        enc.clear_buffer(&self.candidates, 0, Some(16));
+        {
+            let mut pass =
+                enc.begin_compute_pass(&wgpu::ComputePassDescriptor { label: Some("substeps"), ..Default::default() });
+            for k in 0..steps {
+                self.encode_step(&mut pass, m, k);
+            }
+        }
+        let read = self.config.check_finite || m.has_fracture();
+        if read {
+            enc.copy_buffer_to_buffer(&self.candidates, 0, &self.status, 0, 16);
+        }
+        self.queue.submit([enc.finish()]);
+        self.time = start + steps as f64 * dt;
+        let mut report = RunReport { steps, ..Default::default() };
+        if read {
+            let w: Vec<u32> = bytemuck::pod_collect_to_vec(&self.map_read(&self.status, 16)?);
+            report.spring_candidates = w[0];
+            report.vertex_candidates = w[1];
+            if self.config.check_finite && w[2] != 0 {
+                self.timers.steps += steps as u64;
+                self.timers.total += t0.elapsed();
+                return Err(GpuError::NonFinite { from: start, to: self.time, dt });
+            }
+        }
+        self.timers.steps += steps as u64;
+        self.timers.total += t0.elapsed();
+        Ok(report)
+    }
+
+    /// Waits until the queue is idle (for timing).
+    pub fn wait(&self) -> Result<(), GpuError> {
+        self.device.poll(wgpu::PollType::wait_indefinitely()).map(|_| ()).map_err(|e| GpuError::Readback(e.to_string()))
+    }
+
+    /// The fracture candidates the last submission flagged.
+    pub fn candidates(&self) -> Result<Candidates, GpuError> {
+        let cap = self.config.candidate_capacity.max(1) as usize;
+        let bytes = self.read_bytes(&self.candidates, ((4 + 2 * cap) * 4) as u64)?;
+        let w: Vec<u32> = bytemuck::pod_collect_to_vec(&bytes);
+        let list = |kind: usize| {
+            let n = (w[kind] as usize).min(cap);
+            let mut v = w[4 + kind * cap..4 + kind * cap + n].to_vec();
+            v.sort_unstable();
+            v.dedup();
+            v
+        };
+        Ok(Candidates { springs: list(0), vertices: list(1), overflow: w[0] as usize > cap || w[1] as usize > cap })
+    }
+
+    /// The net force on every particle at `state` [N] (gravity, springs, pressure, wind; not collisions): the
+    /// kernels' twin of `CpuSolver::compute_forces`. Replaces the GPU state with `state`.
+    pub fn compute_forces(&mut self, m: &Model<f32>, state: &State<f32>) -> Result<Vec<Vec3>, GpuError> {
+        self.check_model(m)?;
+        self.upload_state(state)?;
+        self.write_clock(state.time, 1.0, 1);
+        self.passes.clear();
+        let mut enc = self.device.create_command_encoder(&Default::default());
+        {
+            let mut pass = enc.begin_compute_pass(&Default::default());
+            let cur = self.cur;
+            if m.has_pressure() || m.has_wind() {
+                self.encode_surface(&mut pass, m, cur, 0, true);
+            }
+            self.dispatch(&mut pass, "net_forces", cur, 0, groups(self.particle_count));
+        }
+        self.queue.submit([enc.finish()]);
+        let f = self.read_vec4(&self.q[1 - self.cur], self.particle_count)?;
+        Ok(f.iter().map(|v| Vec3::new(v[0], v[1], v[2])).collect())
+    }
+
+    /// Volume [m^3] and net pressure [Pa] of each body as of the last surface pass (zeros for bodies without gas).
+    pub fn body_volumes_pressures(&self, m: &Model<f32>) -> Result<Vec<(f32, f32)>, GpuError> {
+        let nb = m.body_count();
+        let v = self.read_vec4(&self.scratch.body_state, nb)?;
+        Ok(v.iter()
+            .zip(&self.packed.bodies)
+            .map(|(x, b)| if b.gas_slot == layout::NONE { (0.0, 0.0) } else { (x[0], x[1]) })
+            .collect())
+    }
+
+    /// Re-packs `m` and uploads what differs from the GPU copy (block-wise; after a fracture event that is a few
+    /// blocks per array). If particles were added, the state must be uploaded next ([`GpuSolver::upload_state`]).
+    pub fn sync_model(&mut self, m: &Model<f32>) {
+        let p = Packed::new(m);
+        let (d, q) = (&self.device, &self.queue);
+        let mut realloc = false;
+        let mut bytes = 0;
+        let mut add = |(r, b): (bool, usize)| {
+            realloc |= r;
+            bytes += b;
+        };
+        add(self.particles.sync(d, q, &p.particles));
+        add(self.rows.sync(d, q, &p.rows));
+        add(self.adj.sync(d, q, &p.adj));
+        add(self.springs.sync(d, q, &p.springs));
+        add(self.tris.sync(d, q, &p.tris));
+        add(self.bodies.sync(d, q, &p.bodies));
+        add(self.openings.sync(d, q, &p.openings));
+        add(self.cap_rows.sync(d, q, &p.cap_rows));
+        add(self.cap_items.sync(d, q, &p.cap_items));
+        self.packed = p;
+        let n = m.particle_count();
+        if n != self.particle_count {
+            self.state_stale = true;
+            if n > self.state_capacity {
+                // Keep the current state; the new particles come with the next upload.
+                self.state_capacity = n + n / 4;
+                let su = wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::COPY_SRC;
+                let bytes_old = (self.particle_count * 16) as u64;
+                let mut enc = self.device.create_command_encoder(&Default::default());
+                for k in 0..2 {
+                    let (nq, nqd) = (
+                        layout::create(&self.device, "q", self.state_capacity * 16, su),
+                        layout::create(&self.device, "qd", self.state_capacity * 16, su),
+                    );
+                    enc.copy_buffer_to_buffer(&self.q[k], 0, &nq, 0, bytes_old);
+                    enc.copy_buffer_to_buffer(&self.qd[k], 0, &nqd, 0, bytes_old);
+                    self.q[k] = nq;
+                    self.qd[k] = nqd;
+                }
+                self.queue.submit([enc.finish()]);
+                realloc = true;
+            }
+            self.particle_count = n;
+        }
+        let (gx, gy) = groups(m.tri_count());
+        let np = if self.packed.n_gas > 0 { (gx * gy * self.packed.n_gas) as usize } else { 0 };
+        let surface = if m.has_pressure() || m.has_wind() { m.tri_count() } else { 0 };
+        let want = [surface, m.body_count(), np, self.packed.n_caps as usize];
+        if (0..4).any(|k| want[k] > self.scratch.sized[k]) {
+            self.scratch = scratch(&self.device, m, &self.packed);
+            realloc = true;
+        }
+        self.write_params(m);
+        bytes += size_of::<Params>();
+        if realloc {
+            self.rebind();
+        }
+        self.last_upload = bytes;
+    }
+
+    /// One submission of `steps` substeps with fracture on the CPU: if the kernels flagged a candidate (or a gas
+    /// body has openings, which leak), the state is read back into `state`, `fracture` (the CPU pass, unchanged)
+    /// decides and changes the topology, and what changed is uploaded. Otherwise nothing is read and `state` is
+    /// left as it was (read it with [`GpuSolver::read_state`] when needed). Fracture therefore acts at the end of
+    /// each submission: its time resolution is `steps * dt`.
+    pub fn advance_with_fracture(
+        &mut self,
+        m: &mut Model<f32>,
+        state: &mut State<f32>,
+        fracture: &mut Fracture<f32>,
+        dt: f64,
+        steps: usize,
+    ) -> Result<Vec<FractureEvent>, GpuError> {
+        let report = self.run(m, dt, steps)?;
+        if !fracture.needed(m) {
+            return Ok(Vec::new());
+        }
+        if report.spring_candidates == 0 && report.vertex_candidates == 0 && m.openings.is_empty() {
+            return Ok(Vec::new());
+        }
+        self.read_state(state)?;
+        let events = fracture.apply(m, state, dt * steps as f64);
+        let changed = !fracture.last_delta().is_empty() || !events.is_empty();
+        if changed || !m.openings.is_empty() {
+            // Topology, or just the gas that leaked.
+            self.sync_model(m);
+            self.upload_state(state)?;
+        }
+        Ok(events)
+    }
+}
+
+/// Names of the `@compute` entry points of a WGSL file, in order.
+fn entry_points(src: &'static str) -> Vec<&'static str> {
+    let mut out = Vec::new();
+    let mut rest = src;
+    while let Some(at) = rest.find("@compute") {
+        rest = &rest[at..];
+        let f = rest.find("fn ").expect("an entry point follows @compute") + 3;
+        let end = rest[f..].find('(').expect("entry point has parameters") + f;
+        out.push(rest[f..end].trim());
+        rest = &rest[end..];
+    }
+    out
+}
+
+impl Solver<f32> for GpuSolver {
+    /// One step, as the CPU solver's: uploads `state`, runs one substep, reads it back. For speed use
+    /// [`GpuSolver::run`], which keeps the state on the GPU.
+    fn step(&mut self, model: &Model<f32>, state: &mut State<f32>, dt: f64) -> Result<(), StepError> {
+        self.upload_state(state)?;
+        self.run(model, dt, 1)?;
+        self.read_state(state)?;
+        Ok(())
+    }
+
+    fn notify_model_changed(&mut self, model: &Model<f32>) {
+        self.sync_model(model);
+    }
+
+    fn timers(&self) -> &StageTimers {
+        &self.timers
+    }
+
+    fn reset_timers(&mut self) {
+        self.timers.reset();
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn entry_points_are_found_in_order() {
+        let src = "@compute @workgroup_size(64)\nfn a(x: u32) {}\nfn helper() {}\n@compute\nfn b_c() {}";
+        assert_eq!(entry_points(src), vec!["a", "b_c"]);
+    }
+
+    #[test]
+    fn groups_cover_every_invocation() {
+        for n in [0usize, 1, 63, 64, 65, 64 * 65535, 64 * 65535 + 1, 10_000_000] {
+            let (x, y) = groups(n);
+            assert!(x <= MAX_GROUPS && y <= MAX_GROUPS);
+            assert!((x as usize * y as usize * WG as usize) >= n, "{n}");
+            // No more than one extra row of workgroups.
+            assert!(((x as usize) * (y as usize - 1) * WG as usize) < n.max(1), "{n}");
+        }
+    }
+}

@@ -1,0 +1,47 @@
+//! Every WGSL file parses and validates with naga (the compiler wgpu uses), with no GPU needed; and the Rust
+//! mirrors of the WGSL structs have the sizes the WGSL layout rules give them.
+
+use fissure_gpu::{COMMON_WGSL, SHADERS, shader_source};
+
+fn validate(name: &str, src: &str) -> naga::Module {
+    let module = naga::front::wgsl::parse_str(src).unwrap_or_else(|e| panic!("{name}: {}", e.emit_to_string(src)));
+    naga::valid::Validator::new(naga::valid::ValidationFlags::all(), naga::valid::Capabilities::default())
+        .validate(&module)
+        .unwrap_or_else(|e| panic!("{name}: {}", e.emit_to_string(src)));
+    module
+}
+
+#[test]
+fn every_shader_file_validates() {
+    validate("common.wgsl", COMMON_WGSL);
+    for (name, src) in SHADERS {
+        let m = validate(name, &shader_source(src));
+        assert!(m.entry_points.iter().all(|e| e.stage == naga::ShaderStage::Compute), "{name}");
+        assert!(!m.entry_points.is_empty(), "{name} has no kernel");
+    }
+}
+
+#[test]
+fn every_file_in_the_shader_folder_is_compiled_in() {
+    let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../shaders");
+    for e in std::fs::read_dir(&dir).unwrap() {
+        let name = e.unwrap().file_name().into_string().unwrap();
+        if name.ends_with(".wgsl") && name != "common.wgsl" {
+            assert!(SHADERS.iter().any(|(n, _)| *n == name), "{name} is not in fissure_gpu::SHADERS");
+        }
+    }
+}
+
+#[test]
+fn rust_mirrors_match_the_wgsl_struct_sizes() {
+    let m = validate("common.wgsl", COMMON_WGSL);
+    let size = |name: &str| {
+        let (_, ty) = m.types.iter().find(|(_, t)| t.name.as_deref() == Some(name)).unwrap_or_else(|| panic!("{name}"));
+        ty.inner.size(m.to_ctx()) as usize
+    };
+    assert_eq!(size("Params"), size_of::<fissure_gpu::Params>());
+    assert_eq!(size("Particle"), size_of::<fissure_gpu::GpuParticle>());
+    assert_eq!(size("Spring"), size_of::<fissure_gpu::GpuSpring>());
+    assert_eq!(size("Body"), size_of::<fissure_gpu::GpuBody>());
+    assert_eq!(size("Collider"), size_of::<fissure_gpu::GpuCollider>());
+}

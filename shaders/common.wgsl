@@ -1,0 +1,128 @@
+// fissure: shared declarations of every kernel. The Rust side prepends this file to each kernel file, so all
+// kernels see one bind group layout (group 0: the model and state, group 1: the clock of the current substep).
+// Mirrors: `crates/fissure-gpu/src/layout.rs` (same field order, `bytemuck::Pod`).
+//
+// Vectors are `vec4<f32>` (a `vec3` is 16-byte aligned in storage, so the fourth lane is free and used where noted).
+// WGSL has no float atomics: every force is gathered per particle over CSR lists, one summation order, no races.
+
+const WG: u32 = 64u;
+const NONE: u32 = 0xffffffffu;
+
+struct Params {
+    // xyz: gravity [m/s^2]; w: 1 for projected damping (default), 0 for the seed's unprojected form.
+    gravity: vec4<f32>,
+    // particles, springs, triangles, bodies
+    counts: vec4<u32>,
+    // colliders, gas bodies, openings, volume partial rows (workgroups of the triangle pass)
+    counts2: vec4<u32>,
+    // xyz: mean wind U [m/s]; w: air density [kg/m^3]
+    wind_u: vec4<f32>,
+    // gust amplitude, gust frequency [Hz], gust wavelength [m], crosswind fraction
+    wind_p: vec4<f32>,
+    // candidate capacity (per kind), 0, 0, 0
+    misc: vec4<u32>,
+}
+
+// One per substep, selected by a dynamic offset: nothing is written between substeps of a submission.
+struct Clock {
+    time: f32,
+    dt: f32,
+    _pad0: f32,
+    _pad1: f32,
+}
+
+struct Particle {
+    mass: f32,
+    inv_mass: f32,
+    body: u32,
+    // Core-mode load limit [N]; negative: unbreakable.
+    load_limit: f32,
+}
+
+struct Spring {
+    i: u32,
+    j: u32,
+    rest: f32,
+    ks: f32,
+    kd: f32,
+    // Strain limit; negative: unbreakable (or broken).
+    strain_limit: f32,
+    _pad0: u32,
+    _pad1: u32,
+}
+
+struct Body {
+    // nRT [J]; 0: no gas
+    gas: f32,
+    p_ext: f32,
+    rest_volume: f32,
+    drag: f32,
+    lift: f32,
+    anchor: u32,
+    // index among the gas bodies, or NONE
+    gas_slot: u32,
+    _pad0: u32,
+}
+
+struct Collider {
+    // kind (0 half-space, 1 ball, 2 cuboid, 3 capsule, 4 signed-distance grid), grid offset into `sdf`, 0, 0
+    head: vec4<u32>,
+    // restitution, restitution threshold [m/s], friction, margin [m]
+    material: vec4<f32>,
+    translation: vec4<f32>,
+    // unit quaternion (x, y, z, w)
+    rotation: vec4<f32>,
+    linear_velocity: vec4<f32>,
+    angular_velocity: vec4<f32>,
+    // half-space: normal; ball: radius in x; cuboid: half extents; capsule: a, radius in w; grid: origin, cell in w
+    a: vec4<f32>,
+    // capsule: b; grid: dims (as f32, exact integers)
+    b: vec4<f32>,
+    // world-space bounding box of the collider at time 0 grown by the sweep: min (xyz)
+    _reserved: vec4<f32>,
+}
+
+@group(0) @binding(0) var<uniform> params: Params;
+@group(0) @binding(1) var<storage, read> q_src: array<vec4<f32>>;
+@group(0) @binding(2) var<storage, read> qd_src: array<vec4<f32>>;
+@group(0) @binding(3) var<storage, read_write> q_dst: array<vec4<f32>>;
+@group(0) @binding(4) var<storage, read_write> qd_dst: array<vec4<f32>>;
+@group(0) @binding(5) var<storage, read> particles: array<Particle>;
+// Per particle: spring row start, spring row length, triangle row start, triangle row length (offsets into `adj`).
+@group(0) @binding(6) var<storage, read> rows: array<vec4<u32>>;
+// Spring rows hold `spring << 1 | end`; triangle rows hold triangle ids.
+@group(0) @binding(7) var<storage, read> adj: array<u32>;
+@group(0) @binding(8) var<storage, read> springs: array<Spring>;
+// a, b, c, body
+@group(0) @binding(9) var<storage, read> tris: array<vec4<u32>>;
+// xyz: (x1 - x0) x (x2 - x0); w: its 6V contribution about the body's anchor (gas bodies only)
+@group(0) @binding(10) var<storage, read_write> tri_cross: array<vec4<f32>>;
+// force on each corner (pressure + wind share) [N]
+@group(0) @binding(11) var<storage, read_write> tri_f: array<vec4<f32>>;
+@group(0) @binding(12) var<storage, read> bodies: array<Body>;
+// per body: volume [m^3], net pressure [Pa], 0, 0
+@group(0) @binding(13) var<storage, read_write> body_state: array<vec4<f32>>;
+// volume partial sums: row r (a workgroup of the triangle pass), column g (gas slot)
+@group(0) @binding(14) var<storage, read_write> partials: array<f32>;
+@group(0) @binding(15) var<storage, read> colliders: array<Collider>;
+@group(0) @binding(16) var<storage, read> sdf: array<f32>;
+// Openings: per opening (body, first slot, slot count, 0) as 4 words, then the loop vertices of every slot.
+@group(0) @binding(17) var<storage, read> openings: array<u32>;
+// Per particle: start and length of its cap row in `cap_items` (pairs: opening, position in its loop).
+@group(0) @binding(18) var<storage, read> cap_rows: array<vec2<u32>>;
+@group(0) @binding(19) var<storage, read> cap_items: array<vec2<u32>>;
+// Per opening: (centre xyz, 6 V of the cap), (Σ edge gradients xyz, slot count)
+@group(0) @binding(20) var<storage, read_write> cap_data: array<vec4<f32>>;
+// [spring count, vertex count, spring ids (capacity), vertex ids (capacity)]
+@group(0) @binding(21) var<storage, read_write> candidates: array<atomic<u32>>;
+
+@group(1) @binding(0) var<uniform> clock: Clock;
+
+// Flat index of a 2-D dispatch (more than 65535 workgroups of 64 need a second dimension).
+fn flat_index(gid: vec3<u32>, nwg: vec3<u32>) -> u32 {
+    return gid.x + gid.y * nwg.x * WG;
+}
+
+fn particle_count() -> u32 { return params.counts.x; }
+fn spring_count() -> u32 { return params.counts.y; }
+fn tri_count() -> u32 { return params.counts.z; }

@@ -1,0 +1,142 @@
+// Per-particle force gather and the integrators. Twin of `fissure_core::forces::particle_force` and the CPU
+// solver's update loops: gravity, then the particle's springs in CSR order (each spring computed by both its ends;
+// WGSL has no float atomics and recomputing is cheaper than a second pass), then its triangles' corner forces
+// (pressure + wind, when the model has either), then the pressure through the caps over openings.
+
+fn spring_force(s: Spring, d: vec3<f32>, dv: vec3<f32>) -> vec3<f32> {
+    let l2 = dot(d, d);
+    let l = sqrt(l2);
+    // Coincident ends have no direction and no elastic force.
+    let inv = select(0.0, 1.0 / l, l2 > 0.0);
+    let u = d * inv;
+    if (params.gravity.w != 0.0) {
+        return u * (s.ks * (l - s.rest) + s.kd * dot(dv, u));
+    }
+    return u * (s.ks * (l - s.rest)) + dv * s.kd;
+}
+
+// Gradient share of a cap edge `i -> j` about the cap's centre `c` (each end gets it).
+fn cap_edge(xi: vec3<f32>, xj: vec3<f32>, c: vec3<f32>) -> vec3<f32> {
+    return cross(xi - xj, c - xj) * (1.0 / 6.0);
+}
+
+fn cap_force(i: u32) -> vec3<f32> {
+    var f = vec3<f32>(0.0);
+    let row = cap_rows[i];
+    let n_gas = params.counts2.y;
+    for (var k = 0u; k < row.y; k++) {
+        let item = cap_items[row.x + k];
+        let o = item.x;
+        let h = n_gas + 4u * o;
+        let body = openings[h];
+        let first = openings[h + 1u];
+        let n = openings[h + 2u];
+        let at = item.y;
+        let prev = openings[first + (at + n - 1u) % n];
+        let next = openings[first + (at + 1u) % n];
+        let c = cap_data[2u * o].xyz;
+        let cg = cap_data[2u * o + 1u].xyz;
+        let xi = q_src[i].xyz;
+        let g = cap_edge(q_src[prev].xyz, xi, c) + cap_edge(xi, q_src[next].xyz, c) + cg * (1.0 / f32(n));
+        f += g * body_state[body].y;
+    }
+    return f;
+}
+
+// Net force on particle `i` at the source state [N].
+fn particle_force(i: u32) -> vec3<f32> {
+    let p = particles[i];
+    var f = params.gravity.xyz * p.mass;
+    let row = rows[i];
+    let xi = q_src[i].xyz;
+    let vi = qd_src[i].xyz;
+    for (var k = 0u; k < row.y; k++) {
+        let e = adj[row.x + k];
+        let s = springs[e >> 1u];
+        if ((e & 1u) == 0u) {
+            f += spring_force(s, q_src[s.j].xyz - xi, qd_src[s.j].xyz - vi);
+        } else {
+            f -= spring_force(s, xi - q_src[s.i].xyz, vi - qd_src[s.i].xyz);
+        }
+    }
+    // misc.y: triangle forces present (pressure or wind); misc.z: caps over openings present.
+    if (params.misc.y != 0u) {
+        for (var k = 0u; k < row.w; k++) {
+            f += tri_f[adj[row.z + k]].xyz;
+        }
+        if (params.misc.z != 0u) {
+            f += cap_force(i);
+        }
+    }
+    return f;
+}
+
+fn not_finite(v: vec3<f32>) -> bool {
+    let b = bitcast<vec3<u32>>(v) & vec3<u32>(0x7f800000u);
+    return any(b == vec3<u32>(0x7f800000u));
+}
+
+fn flag_blown(v: vec3<f32>) {
+    if (not_finite(v)) {
+        atomicStore(&candidates[2], 1u);
+    }
+}
+
+// Symplectic Euler, the seed's eqs. (3)-(5): v += dt a(x, v); x += dt v.
+@compute @workgroup_size(64)
+fn integrate_symplectic_euler(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>) {
+    let i = flat_index(gid, nwg);
+    if (i >= particle_count()) { return; }
+    let w = particles[i].inv_mass;
+    if (w == 0.0) {
+        q_dst[i] = q_src[i];
+        qd_dst[i] = qd_src[i];
+        return;
+    }
+    let dt = clock.dt;
+    let v = qd_src[i].xyz + particle_force(i) * (w * dt);
+    qd_dst[i] = vec4<f32>(v, 0.0);
+    q_dst[i] = vec4<f32>(q_src[i].xyz + v * dt, 0.0);
+    flag_blown(v);
+}
+
+// Velocity Verlet, first half: kick half a step, drift a whole step.
+@compute @workgroup_size(64)
+fn integrate_verlet_first(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>) {
+    let i = flat_index(gid, nwg);
+    if (i >= particle_count()) { return; }
+    let w = particles[i].inv_mass;
+    if (w == 0.0) {
+        q_dst[i] = q_src[i];
+        qd_dst[i] = qd_src[i];
+        return;
+    }
+    let dt = clock.dt;
+    let v = qd_src[i].xyz + particle_force(i) * (w * (dt * 0.5));
+    qd_dst[i] = vec4<f32>(v, 0.0);
+    q_dst[i] = vec4<f32>(q_src[i].xyz + v * dt, 0.0);
+}
+
+// Velocity Verlet, second half: kick with the forces at the new positions and half-step velocities.
+@compute @workgroup_size(64)
+fn integrate_verlet_second(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>) {
+    let i = flat_index(gid, nwg);
+    if (i >= particle_count()) { return; }
+    q_dst[i] = q_src[i];
+    let w = particles[i].inv_mass;
+    if (w == 0.0) {
+        qd_dst[i] = qd_src[i];
+        return;
+    }
+    let v = qd_src[i].xyz + particle_force(i) * (w * (clock.dt * 0.5));
+    qd_dst[i] = vec4<f32>(v, 0.0);
+    flag_blown(v);
+}
+
+// The net force on every particle into `q_dst` (for tests and tools; no state is changed).
+@compute @workgroup_size(64)
+fn net_forces(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>) {
+    let i = flat_index(gid, nwg);
+    if (i >= particle_count()) { return; }
+    q_dst[i] = vec4<f32>(particle_force(i), 0.0);
+}

@@ -1,0 +1,197 @@
+// The surface pass: triangle crosses, gas-body volumes (a two-pass workgroup reduction), pressures, and the
+// per-corner force of each triangle (the seed's eq. (9) pressure force plus wind drag and lift).
+// Twin of `ForceScratch::surface` in fissure-core. Encoded only when the model has gas or wind.
+
+const TAU: f32 = 6.283185307179586;
+
+var<workgroup> red: array<f32, 64>;
+var<workgroup> slot_lo: atomic<u32>;
+var<workgroup> slot_hi: atomic<u32>;
+var<workgroup> range: array<u32, 2>;
+
+fn tree_sum(li: u32) {
+    for (var s = WG / 2u; s > 0u; s = s >> 1u) {
+        if (li < s) {
+            red[li] = red[li] + red[li + s];
+        }
+        workgroupBarrier();
+    }
+}
+
+// Pass 1 (one invocation per triangle): the cross vector and, for gas bodies, `(x0 - anchor)·cross`; then each
+// workgroup sums those per gas body into its row of `partials` (only the gas slots its triangles touch; the
+// rest of the row gets 0). Bodies' triangles are mostly contiguous, so that is one or two slots per workgroup.
+@compute @workgroup_size(64)
+fn surface_cross(
+    @builtin(global_invocation_id) gid: vec3<u32>,
+    @builtin(local_invocation_index) li: u32,
+    @builtin(workgroup_id) wid: vec3<u32>,
+    @builtin(num_workgroups) nwg: vec3<u32>,
+) {
+    let t = flat_index(gid, nwg);
+    let row = wid.x + wid.y * nwg.x;
+    let n_gas = params.counts2.y;
+    if (li == 0u) {
+        atomicStore(&slot_lo, NONE);
+        atomicStore(&slot_hi, 0u);
+    }
+    workgroupBarrier();
+    var slot = NONE;
+    var w = 0.0;
+    if (t < tri_count()) {
+        let tri = tris[t];
+        let x0 = q_src[tri.x].xyz;
+        let c = cross(q_src[tri.y].xyz - x0, q_src[tri.z].xyz - x0);
+        let body = bodies[tri.w];
+        slot = body.gas_slot;
+        if (slot != NONE) {
+            w = dot(x0 - q_src[body.anchor].xyz, c);
+            atomicMin(&slot_lo, slot);
+            atomicMax(&slot_hi, slot);
+        }
+        tri_cross[t] = vec4<f32>(c, w);
+    }
+    if (n_gas == 0u) {
+        return;
+    }
+    workgroupBarrier();
+    if (li == 0u) {
+        range[0] = atomicLoad(&slot_lo);
+        range[1] = atomicLoad(&slot_hi);
+    }
+    let r = workgroupUniformLoad(&range);
+    // Slots this workgroup has no triangle of: 0.
+    for (var g = li; g < n_gas; g += WG) {
+        if (r[0] == NONE || g < r[0] || g > r[1]) {
+            partials[row * n_gas + g] = 0.0;
+        }
+    }
+    if (r[0] == NONE) {
+        return;
+    }
+    for (var g = r[0]; g <= r[1]; g++) {
+        red[li] = select(0.0, w, slot == g);
+        workgroupBarrier();
+        tree_sum(li);
+        if (li == 0u) {
+            partials[row * n_gas + g] = red[0];
+        }
+        workgroupBarrier();
+    }
+}
+
+// Caps over the openings of gas bodies (one invocation per opening, loops are short): centre, `6 V` of the cap
+// fan about the body's anchor, and the sum of its edges' gradients (the centre's share).
+@compute @workgroup_size(64)
+fn surface_caps(@builtin(global_invocation_id) gid: vec3<u32>) {
+    let o = gid.x;
+    if (o >= params.counts2.z) { return; }
+    let h = params.counts2.y + 4u * o;
+    let body = openings[h];
+    let first = openings[h + 1u];
+    let n = openings[h + 2u];
+    let anchor = q_src[bodies[body].anchor].xyz;
+    var c = vec3<f32>(0.0);
+    for (var k = 0u; k < n; k++) {
+        c += q_src[openings[first + k]].xyz;
+    }
+    c = c * (1.0 / f32(n));
+    var vol6 = 0.0;
+    var cg = vec3<f32>(0.0);
+    for (var k = 0u; k < n; k++) {
+        let xi = q_src[openings[first + k]].xyz;
+        let xj = q_src[openings[first + (k + 1u) % n]].xyz;
+        vol6 += dot(xj - anchor, cross(xi - anchor, c - anchor));
+        cg += cross(xi - xj, c - xj) * (1.0 / 6.0);
+    }
+    cap_data[2u * o] = vec4<f32>(c, vol6);
+    cap_data[2u * o + 1u] = vec4<f32>(cg, f32(n));
+}
+
+// Pass 2 (one workgroup per gas body): sum the rows, add the caps, then V and P = nRT / max(V, 1e-3 V0) - P_ext.
+@compute @workgroup_size(64)
+fn surface_volume(@builtin(local_invocation_index) li: u32, @builtin(workgroup_id) wid: vec3<u32>) {
+    let g = wid.x;
+    let n_gas = params.counts2.y;
+    let rows_n = params.counts2.w;
+    var acc = 0.0;
+    for (var r = li; r < rows_n; r += WG) {
+        acc += partials[r * n_gas + g];
+    }
+    red[li] = acc;
+    workgroupBarrier();
+    tree_sum(li);
+    if (li == 0u) {
+        let b = openings[g];
+        var vol6 = red[0];
+        for (var o = 0u; o < params.counts2.z; o++) {
+            if (openings[n_gas + 4u * o] == b) {
+                vol6 += cap_data[2u * o].w;
+            }
+        }
+        let v = vol6 * (1.0 / 6.0);
+        let body = bodies[b];
+        let p = body.gas / max(v, body.rest_volume * 1e-3) - body.p_ext;
+        body_state[b] = vec4<f32>(v, p, 0.0, 0.0);
+    }
+}
+
+// Wind velocity at `x` and time `t`: twin of `WindField::sample`.
+fn wind_sample(x: vec3<f32>, t: f32) -> vec3<f32> {
+    let u = params.wind_u.xyz;
+    let speed = length(u);
+    if (speed == 0.0) {
+        return vec3<f32>(0.0);
+    }
+    let dir = u / speed;
+    let along = dot(x, dir) / max(params.wind_p.z, 1e-9);
+    let f = params.wind_p.y;
+    let phase = TAU * (f * t - along);
+    let phase2 = TAU * (0.37 * f * t - 0.61 * along);
+    var side = cross(dir, vec3<f32>(0.0, 1.0, 0.0));
+    if (dot(side, side) < 1e-12) {
+        side = vec3<f32>(1.0, 0.0, 0.0);
+    }
+    side = normalize(side);
+    return u * (1.0 + params.wind_p.x * sin(phase)) + side * (params.wind_p.w * speed * sin(phase2));
+}
+
+// Drag and lift on a triangle with cross vector `c` in relative air velocity `v`: twin of `aero_force`.
+fn aero_force(c: vec3<f32>, v: vec3<f32>, cd: f32, cl: f32, rho_half: f32) -> vec3<f32> {
+    let c_len = length(c);
+    let speed = length(v);
+    if (c_len <= 0.0 || speed <= 0.0) {
+        return vec3<f32>(0.0);
+    }
+    let area = c_len * 0.5;
+    var n = c / c_len;
+    var vn = dot(n, v);
+    if (vn < 0.0) {
+        n = -n;
+        vn = -vn;
+    }
+    let drag = v * (rho_half * cd * area * vn);
+    let lift = (n * speed - v * (vn / speed)) * (rho_half * cl * area * vn);
+    return drag + lift;
+}
+
+// Pass 3 (one invocation per triangle): the force on each of its corners.
+@compute @workgroup_size(64)
+fn surface_force(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>) {
+    let t = flat_index(gid, nwg);
+    if (t >= tri_count()) { return; }
+    let tri = tris[t];
+    let body = bodies[tri.w];
+    let c = tri_cross[t].xyz;
+    let p = select(0.0, body_state[tri.w].y, body.gas_slot != NONE);
+    var f = c * (p * (1.0 / 6.0));
+    let rho = params.wind_u.w;
+    if (rho > 0.0 && (body.drag != 0.0 || body.lift != 0.0)) {
+        let third = 1.0 / 3.0;
+        let centroid = (q_src[tri.x].xyz + q_src[tri.y].xyz + q_src[tri.z].xyz) * third;
+        let vel = (qd_src[tri.x].xyz + qd_src[tri.y].xyz + qd_src[tri.z].xyz) * third;
+        let air = wind_sample(centroid, clock.time);
+        f += aero_force(c, air - vel, body.drag, body.lift, 0.5 * rho) * third;
+    }
+    tri_f[t] = vec4<f32>(f, 0.0);
+}
