@@ -58,6 +58,18 @@ fn sdf_sample(c: Collider, p: vec3<f32>) -> f32 {
     return mix(mix(c00, c10, f.y), mix(c01, c11, f.y), f.z);
 }
 
+const SDF_ITERATIONS: u32 = 4u;
+
+// Gradient of the grid at `p` by central differences over half a cell.
+fn sdf_gradient(c: Collider, p: vec3<f32>) -> vec3<f32> {
+    let e = 0.5 * c.a.w;
+    return vec3<f32>(
+        sdf_sample(c, p + vec3<f32>(e, 0.0, 0.0)) - sdf_sample(c, p - vec3<f32>(e, 0.0, 0.0)),
+        sdf_sample(c, p + vec3<f32>(0.0, e, 0.0)) - sdf_sample(c, p - vec3<f32>(0.0, e, 0.0)),
+        sdf_sample(c, p + vec3<f32>(0.0, 0.0, e)) - sdf_sample(c, p - vec3<f32>(0.0, 0.0, e)),
+    );
+}
+
 fn closest(c: Collider, p: vec3<f32>) -> Closest {
     var r: Closest;
     r.valid = true;
@@ -123,21 +135,25 @@ fn closest(c: Collider, p: vec3<f32>) -> Closest {
             r.valid = false;
             return r;
         }
-        let d = sdf_sample(c, p);
-        let e = 0.5 * c.a.w;
-        let g = vec3<f32>(
-            sdf_sample(c, p + vec3<f32>(e, 0.0, 0.0)) - sdf_sample(c, p - vec3<f32>(e, 0.0, 0.0)),
-            sdf_sample(c, p + vec3<f32>(0.0, e, 0.0)) - sdf_sample(c, p - vec3<f32>(0.0, e, 0.0)),
-            sdf_sample(c, p + vec3<f32>(0.0, 0.0, e)) - sdf_sample(c, p - vec3<f32>(0.0, 0.0, e)),
-        );
-        let gl = length(g);
-        if (gl <= 0.0) {
-            r.valid = false;
-            return r;
+        r.inside = sdf_sample(c, p) < 0.0;
+        // Newton steps onto the zero level (twin of `SdfGrid::closest`).
+        var q = p;
+        var n = vec3<f32>(0.0);
+        for (var it = 0u; it < SDF_ITERATIONS; it++) {
+            let d = sdf_sample(c, q);
+            let g = sdf_gradient(c, q);
+            let gl = length(g);
+            if (gl <= 0.0) {
+                r.valid = false;
+                return r;
+            }
+            n = g / gl;
+            q = q - n * d;
+            if (abs(d) <= 1e-4 * c.a.w) {
+                break;
+            }
         }
-        let n = g / gl;
-        r.point = p - n * d;
-        r.inside = d < 0.0;
+        r.point = q;
         r.normal = n;
     }
     return r;

@@ -76,8 +76,8 @@ fn not_finite(v: vec3<f32>) -> bool {
     return any(b == vec3<u32>(0x7f800000u));
 }
 
-fn flag_blown(v: vec3<f32>) {
-    if (not_finite(v)) {
+fn flag_blown(x: vec3<f32>, v: vec3<f32>) {
+    if (not_finite(x) || not_finite(v)) {
         atomicStore(&candidates[2], 1u);
     }
 }
@@ -95,9 +95,10 @@ fn integrate_symplectic_euler(@builtin(global_invocation_id) gid: vec3<u32>, @bu
     }
     let dt = clock.dt;
     let v = qd_src[i].xyz + particle_force(i) * (w * dt);
+    let x = q_src[i].xyz + v * dt;
     qd_dst[i] = vec4<f32>(v, 0.0);
-    q_dst[i] = vec4<f32>(q_src[i].xyz + v * dt, 0.0);
-    flag_blown(v);
+    q_dst[i] = vec4<f32>(x, 0.0);
+    flag_blown(x, v);
 }
 
 // Velocity Verlet, first half: kick half a step, drift a whole step.
@@ -130,7 +131,7 @@ fn integrate_verlet_second(@builtin(global_invocation_id) gid: vec3<u32>, @built
     }
     let v = qd_src[i].xyz + particle_force(i) * (w * (clock.dt * 0.5));
     qd_dst[i] = vec4<f32>(v, 0.0);
-    flag_blown(v);
+    flag_blown(q_src[i].xyz, v);
 }
 
 // The net force on every particle into `q_dst` (for tests and tools; no state is changed).

@@ -28,6 +28,10 @@ pub use fissure_core::*;
 pub mod scene;
 pub mod scenes;
 
+/// The wgpu compute backend (feature `gpu`): [`gpu::GpuSolver`], [`gpu::GpuContext`].
+#[cfg(feature = "gpu")]
+pub use fissure_gpu as gpu;
+
 /// The README's code, compiled and run as a doctest so it cannot rot.
 #[cfg(doctest)]
 #[doc = include_str!("../README.md")]

@@ -709,7 +709,9 @@ impl ModelBuilder {
                 .mass
                 .iter()
                 .zip(&self.pinned)
-                .map(|(&m, &p)| if p || m == 0.0 { R::ZERO } else { r(1.0 / m) })
+                // The inverse of the rounded mass, so `inv_mass == 1 / mass` holds exactly in `R` (fracture re-derives
+                // it that way and `check_invariants` checks it).
+                .map(|(&m, &p)| if p || m == 0.0 { R::ZERO } else { R::ONE / r(m) })
                 .collect(),
             particle_body: self.particle_body.clone(),
             spring_indices: self.springs.iter().map(|s| s.0).collect(),

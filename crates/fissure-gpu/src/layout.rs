@@ -159,10 +159,13 @@ pub(crate) struct Packed {
     pub n_caps: u32,
     pub any_strain_limit: bool,
     pub any_load_limit: bool,
+    pub tri_offset: usize,
 }
 
 impl Packed {
-    pub fn new(m: &Model<f32>) -> Self {
+    /// Packs `m`. The triangle rows go after the spring rows in `adj`, at `tri_offset` (or right after them if
+    /// they are longer): keeping that offset fixed as the spring rows grow keeps a fracture's upload local.
+    pub fn new(m: &Model<f32>, tri_offset: usize) -> Self {
         let mut p = Packed::default();
         p.particles.extend((0..m.particle_count()).map(|i| {
             let lim = m.particle_load_limit[i];
@@ -175,9 +178,12 @@ impl Packed {
         }));
         p.any_load_limit = p.particles.iter().any(|q| q.load_limit >= 0.0);
         let (sp, tr) = (&m.particle_springs, &m.particle_tris);
-        let off = sp.items.len() as u32;
-        p.rows.extend((0..m.particle_count()).map(|i| [sp.start[i], sp.len[i], tr.start[i] + off, tr.len[i]]));
+        let off = tri_offset.max(sp.items.len());
+        p.tri_offset = off;
+        let off32 = off as u32;
+        p.rows.extend((0..m.particle_count()).map(|i| [sp.start[i], sp.len[i], tr.start[i] + off32, tr.len[i]]));
         p.adj.extend_from_slice(&sp.items);
+        p.adj.resize(off, 0);
         p.adj.extend_from_slice(&tr.items);
         p.springs.extend((0..m.spring_count()).map(|s| {
             let [i, j] = m.spring_indices[s];
@@ -321,12 +327,13 @@ pub(crate) struct Mirror<T: Pod> {
 }
 
 /// Elements compared (and written) at a time.
-const BLOCK: usize = 256;
+const BLOCK: usize = 64;
 
 impl<T: Pod> Mirror<T> {
     pub fn new(device: &wgpu::Device, queue: &wgpu::Queue, label: &'static str, data: &[T]) -> Self {
         let usage = wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::COPY_SRC;
-        let capacity = data.len().max(1);
+        // Room to grow by a quarter (fracture appends) before the first reallocation.
+        let capacity = (data.len() + data.len() / 4).max(4);
         let buffer = create(device, label, capacity * size_of::<T>(), usage);
         queue.write_buffer(&buffer, 0, bytemuck::cast_slice(data));
         Mirror { host: data.to_vec(), buffer, capacity, label, usage }

@@ -257,7 +257,8 @@ impl GpuSolver {
                 by_name.push((entry, p));
             }
         }
-        let packed = Packed::new(model);
+        let items = model.particle_springs.items.len();
+        let packed = Packed::new(model, items + items / 4);
         let mut sdf_host = Vec::new();
         let colliders_host = layout::pack_colliders(&model.colliders, config.sdf_cells, &mut sdf_host)?;
         let rows = Mirror::new(&device, &queue, "rows", &packed.rows);
@@ -757,7 +758,7 @@ impl GpuSolver {
     /// Re-packs `m` and uploads what differs from the GPU copy (block-wise; after a fracture event that is a few
     /// blocks per array). If particles were added, the state must be uploaded next ([`GpuSolver::upload_state`]).
     pub fn sync_model(&mut self, m: &Model<f32>) {
-        let p = Packed::new(m);
+        let p = Packed::new(m, self.packed.tri_offset);
         let (d, q) = (&self.device, &self.queue);
         let mut realloc = false;
         let mut bytes = 0;

@@ -1,0 +1,466 @@
+//! CPU–GPU parity: every kernel of `fissure-gpu` against its CPU twin in `fissure-core` (f32 on both sides).
+//!
+//! Tolerances, and why:
+//! - per-step forces: `|f_gpu - f_cpu| <= 2e-4 max_i |f_cpu|` per particle. Both sum in f32 over the same CSR
+//!   rows, but the CPU sums spring runs blockwise and the GPU computes each spring at both ends, so terms of
+//!   up to ~1e3 N that cancel to a few N differ by a few ulps of the terms;
+//! - volumes and pressures: 1e-5 relative;
+//! - trajectories over 500+ steps: RMS position difference below 1e-4 of the scene's size (the rounding differences
+//!   above, propagated by a damped, non-chaotic motion);
+//! - collisions in one step: 1e-5 m and 1e-4 m/s;
+//! - fracture candidates: the same sets exactly (the test keeps every strain or load at least 5 % from its limit).
+//!
+//! With `CI` set, a missing adapter fails these tests (CI installs lavapipe); elsewhere they are skipped loudly.
+
+use fissure::glam::{DVec3, Vec3};
+use fissure::scenes::{self, BallDrop};
+use fissure::*;
+use fissure_gpu::{GpuConfig, GpuContext, GpuError, GpuSolver, adapter_required};
+
+fn gpu() -> Option<GpuContext> {
+    match GpuContext::new() {
+        Ok(c) => {
+            eprintln!("GPU tests on {}", c.describe());
+            Some(c)
+        }
+        Err(e) => {
+            assert!(
+                !adapter_required(),
+                "CI is set, so the GPU tests need an adapter (install mesa-vulkan-drivers for lavapipe): {e}"
+            );
+            eprintln!("SKIPPED: no GPU adapter: {e}");
+            None
+        }
+    }
+}
+
+fn solver(ctx: &GpuContext, m: &Model<f32>, integrator: Integrator) -> GpuSolver {
+    GpuSolver::new(ctx.device.clone(), ctx.queue.clone(), m, GpuConfig { integrator, ..Default::default() }).unwrap()
+}
+
+/// A deterministic pseudo-random number in [-1, 1).
+fn noise(seed: &mut u64) -> f32 {
+    *seed = seed.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+    ((*seed >> 40) as f32 / (1u64 << 24) as f32) * 2.0 - 1.0
+}
+
+/// The model's initial state, shaken: positions by up to `dx` [m], velocities by up to `dv` [m/s].
+fn shaken(m: &Model<f32>, dx: f32, dv: f32) -> State<f32> {
+    let mut s = m.state();
+    let mut seed = 7;
+    for (q, v) in s.particle_q.iter_mut().zip(&mut s.particle_qd) {
+        *q += Vec3::new(noise(&mut seed), noise(&mut seed), noise(&mut seed)) * dx;
+        *v += Vec3::new(noise(&mut seed), noise(&mut seed), noise(&mut seed)) * dv;
+    }
+    s.time = 0.37;
+    s
+}
+
+fn assert_forces_match(name: &str, ctx: &GpuContext, m: &Model<f32>, s: &State<f32>) {
+    let mut cpu = CpuSolver::<f32>::default();
+    let mut f_cpu = vec![Vec3::ZERO; m.particle_count()];
+    cpu.compute_forces(m, s, &mut f_cpu).unwrap();
+    let mut g = solver(ctx, m, Integrator::SymplecticEuler);
+    let f_gpu = g.compute_forces(m, s).unwrap();
+    let scale = f_cpu.iter().map(|f| f.length()).fold(0.0, f32::max);
+    let worst = f_cpu.iter().zip(&f_gpu).map(|(a, b)| (*a - *b).length()).fold(0.0, f32::max);
+    eprintln!("{name}: max |f| = {scale:.3e} N, worst difference {worst:.3e} N ({:.2e} relative)", worst / scale);
+    assert!(worst <= 2e-4 * scale, "{name}: forces differ by {worst} N (largest force {scale} N)");
+}
+
+#[test]
+fn forces_match_the_cpu_springs_gravity_wind() {
+    let Some(ctx) = gpu() else { return };
+    let m: Model<f32> = scenes::cloth_wind(24).unwrap().finalize().unwrap();
+    assert!(m.has_wind() && !m.has_pressure());
+    assert_forces_match("cloth + wind", &ctx, &m, &shaken(&m, 0.004, 0.5));
+    let m: Model<f32> = scenes::benchmark_cloth(16).unwrap().finalize().unwrap();
+    assert_forces_match("cloth, springs only", &ctx, &m, &shaken(&m, 0.001, 0.2));
+}
+
+#[test]
+fn forces_match_the_cpu_pressure_and_unprojected_damping() {
+    let Some(ctx) = gpu() else { return };
+    let m: Model<f32> = scenes::ball_drop(&BallDrop::default()).unwrap().finalize().unwrap();
+    assert!(m.has_pressure());
+    let s = shaken(&m, 0.01, 0.3);
+    assert_forces_match("pressurised ball", &ctx, &m, &s);
+    // Volumes and pressures of the reduction against the CPU's f64 sums.
+    let mut g = solver(&ctx, &m, Integrator::SymplecticEuler);
+    g.compute_forces(&m, &s).unwrap();
+    let vp = g.body_volumes_pressures(&m).unwrap();
+    let (v, p) = (m.body_volumes(&s), m.body_pressures(&s));
+    for b in 0..m.body_count() {
+        assert!((vp[b].0 as f64 - v[b]).abs() <= 1e-5 * v[b], "volume {} vs {}", vp[b].0, v[b]);
+        assert!((vp[b].1 as f64 - p[b]).abs() <= 1e-5 * p[b].abs(), "pressure {} vs {}", vp[b].1, p[b]);
+    }
+    let mut b = scenes::ball_drop(&BallDrop::default()).unwrap();
+    b.damping_model(DampingModel::Unprojected);
+    let m: Model<f32> = b.finalize().unwrap();
+    assert_forces_match("unprojected damping", &ctx, &m, &shaken(&m, 0.01, 0.3));
+}
+
+#[test]
+fn forces_match_the_cpu_through_the_caps_of_a_punctured_ball() {
+    let Some(ctx) = gpu() else { return };
+    let mut m: Model<f32> = scenes::ball_drop(&BallDrop::default()).unwrap().finalize().unwrap();
+    let mut s = m.state();
+    let mut f = Fracture::<f32>::default();
+    assert!(!f.break_core(&mut m, &mut s, 5).is_empty());
+    assert!(!f.break_core(&mut m, &mut s, 300).is_empty());
+    assert!(m.openings.len() >= 2 && m.has_pressure());
+    let mut s2 = shaken(&m, 0.005, 0.2);
+    s2.time = s.time;
+    assert_forces_match("punctured ball (caps)", &ctx, &m, &s2);
+}
+
+fn rms_difference(a: &State<f32>, b: &State<f32>) -> f64 {
+    let sum: f64 = a.particle_q.iter().zip(&b.particle_q).map(|(x, y)| (*x - *y).length_squared() as f64).sum();
+    (sum / a.particle_q.len() as f64).sqrt()
+}
+
+fn assert_trajectories_match(
+    name: &str,
+    ctx: &GpuContext,
+    m: &Model<f32>,
+    integrator: Integrator,
+    dt: f64,
+    steps: usize,
+    size: f64,
+) {
+    let mut cpu = CpuSolver::<f32>::with_integrator(integrator);
+    let mut s_cpu = m.state();
+    for _ in 0..steps {
+        cpu.step(m, &mut s_cpu, dt).unwrap();
+    }
+    let mut g = solver(ctx, m, integrator);
+    // Two submissions, to cover the clock of a second one.
+    g.run(m, dt, steps / 2).unwrap();
+    g.run(m, dt, steps - steps / 2).unwrap();
+    let mut s_gpu = m.state();
+    g.read_state(&mut s_gpu).unwrap();
+    assert!((s_gpu.time - s_cpu.time).abs() < 1e-9);
+    let moved = rms_difference(&s_cpu, &m.state());
+    let rms = rms_difference(&s_cpu, &s_gpu);
+    eprintln!("{name} ({}): moved {moved:.3e} m RMS, GPU-CPU {rms:.3e} m RMS", integrator.name());
+    assert!(moved > 100.0 * rms.max(1e-9), "{name}: the scene barely moved ({moved} m)");
+    assert!(rms <= 1e-4 * size, "{name}: trajectories differ by {rms} m RMS after {steps} steps");
+}
+
+#[test]
+fn cloth_in_wind_trajectory_matches_the_cpu() {
+    let Some(ctx) = gpu() else { return };
+    let m: Model<f32> = scenes::cloth_wind(16).unwrap().finalize().unwrap();
+    for integrator in [Integrator::SymplecticEuler, Integrator::VelocityVerlet] {
+        assert_trajectories_match("cloth in wind", &ctx, &m, integrator, 5e-4, 600, 1.0);
+    }
+}
+
+#[test]
+fn ball_drop_trajectory_matches_the_cpu() {
+    let Some(ctx) = gpu() else { return };
+    // Low, so the ball meets the ground and the first obstacle within the 0.12 s compared.
+    let m: Model<f32> = scenes::ball_drop(&BallDrop { height: 0.4, subdivisions: 2, ..Default::default() })
+        .unwrap()
+        .finalize()
+        .unwrap();
+    for integrator in [Integrator::SymplecticEuler, Integrator::VelocityVerlet] {
+        assert_trajectories_match("ball drop", &ctx, &m, integrator, 2e-4, 600, 0.5);
+    }
+}
+
+#[test]
+fn collisions_match_the_cpu_for_every_analytic_shape() {
+    let Some(ctx) = gpu() else { return };
+    let mut b = ModelBuilder::new();
+    b.add_collider(Collider::ground(0.0).with_restitution(0.5).with_friction(0.3));
+    b.add_collider(Collider::ball(Vec3::new(2.0, 0.5, 0.0), 0.4).with_margin(0.01));
+    b.add_collider(
+        Collider::cuboid(Vec3::new(-2.0, 0.5, 0.0), Vec3::new(0.3, 0.4, 0.5))
+            .with_rotation(fissure::glam::Quat::from_rotation_y(0.4))
+            .with_velocity(Vec3::new(0.2, 0.0, 0.0), Vec3::new(0.0, 1.0, 0.0)),
+    );
+    b.add_collider(Collider::capsule(Vec3::new(0.0, 0.5, 2.0), Vec3::new(0.5, 0.8, 2.0), 0.25).with_friction(0.8));
+    let mut seed = 3;
+    let centres =
+        [DVec3::new(0.0, 0.0, 0.0), DVec3::new(2.0, 0.5, 0.0), DVec3::new(-2.0, 0.5, 0.0), DVec3::new(0.25, 0.65, 2.0)];
+    for c in centres {
+        for _ in 0..200 {
+            let p = c + DVec3::new(noise(&mut seed) as f64, noise(&mut seed) as f64, noise(&mut seed) as f64) * 0.5;
+            let v = DVec3::new(noise(&mut seed) as f64, noise(&mut seed) as f64, noise(&mut seed) as f64) * 2.0;
+            b.add_particle(p, v, 0.01).unwrap();
+        }
+    }
+    let m: Model<f32> = b.finalize().unwrap();
+    let dt = 1e-3;
+    let mut s_cpu = m.state();
+    s_cpu.time = 0.5;
+    let mut g = solver(&ctx, &m, Integrator::SymplecticEuler);
+    g.upload_state(&s_cpu).unwrap();
+    CpuSolver::<f32>::default().step(&m, &mut s_cpu, dt).unwrap();
+    g.run(&m, dt, 1).unwrap();
+    let mut s_gpu = m.state();
+    g.read_state(&mut s_gpu).unwrap();
+    let mut contacts = 0;
+    for i in 0..m.particle_count() {
+        let (dx, dv) = (
+            (s_cpu.particle_q[i] - s_gpu.particle_q[i]).length(),
+            (s_cpu.particle_qd[i] - s_gpu.particle_qd[i]).length(),
+        );
+        assert!(dx <= 1e-5 && dv <= 1e-4, "particle {i}: dx {dx}, dv {dv}");
+        let free = m.state().particle_q[i] + m.state().particle_qd[i] * dt as f32;
+        contacts += ((s_cpu.particle_q[i] - free).length() > 1e-3) as usize;
+    }
+    assert!(contacts > 200, "only {contacts} particles touched a collider");
+}
+
+#[test]
+fn triangle_mesh_colliders_work_through_a_signed_distance_grid() {
+    let Some(ctx) = gpu() else { return };
+    let mut b = ModelBuilder::new();
+    let boxm = Mesh::cuboid(DVec3::new(0.5, 0.3, 0.4), 4);
+    let col = Collider::trimesh(&boxm).unwrap().with_restitution(0.0);
+    b.add_collider(col.clone());
+    let mut seed = 11;
+    let half = DVec3::new(0.5, 0.3, 0.4);
+    for k in 0..300 {
+        // Inside, up to 3 cm below a face.
+        let mut p = DVec3::new(noise(&mut seed) as f64, noise(&mut seed) as f64, noise(&mut seed) as f64) * half * 0.9;
+        let axis = k % 3;
+        let depth = 0.03 * (noise(&mut seed) as f64 * 0.5 + 0.5);
+        p[axis] = (half[axis] - depth) * if noise(&mut seed) > 0.0 { 1.0 } else { -1.0 };
+        b.add_particle(p, DVec3::ZERO, 0.01).unwrap();
+    }
+    let mut bb = b.clone();
+    bb.gravity(DVec3::ZERO);
+    let m: Model<f32> = bb.finalize().unwrap();
+    let mut g = solver(&ctx, &m, Integrator::SymplecticEuler);
+    g.run(&m, 1e-4, 1).unwrap();
+    let mut s = m.state();
+    g.read_state(&mut s).unwrap();
+    // Every particle was inside; each must now be on the surface, to within the grid's resolution (cell = 1/64 of
+    // the longest side), and outside or on it per parry's exact query.
+    let cell = 1.0 / 64.0;
+    let start = m.state();
+    let mut checked = 0;
+    for (i, x) in s.particle_q.iter().enumerate() {
+        // Deep inside, near the medial axis, "the" closest point is ambiguous; contacts start near the surface.
+        let x0 = start.particle_q[i];
+        if (col.shape.project_local_point(x0, false).point - x0).length() > 4.0 * cell {
+            continue;
+        }
+        checked += 1;
+        let p = col.shape.project_local_point(*x, false);
+        let d = (p.point - *x).length();
+        assert!(d <= 0.5 * cell, "particle {i} at {x} is {d} m from the surface");
+        assert!(!p.is_inside || d <= 0.5 * cell, "particle {i} still inside by {d}");
+    }
+    assert!(checked > 250, "{checked}");
+}
+
+#[test]
+fn fracture_candidates_match_the_cpu() {
+    let Some(ctx) = gpu() else { return };
+    // Spring mode: a breakable sheet with three vertices pulled sideways.
+    let mut b = ModelBuilder::new();
+    let opts = ClothOptions {
+        fracture: Some(Breakable { strain_limit: 0.2, ..Default::default() }),
+        pins: vec![],
+        ..Default::default()
+    };
+    let h = b.add_cloth_grid(20, 20, 0.05, |p| p, &opts).unwrap();
+    let mut m: Model<f32> = b.finalize().unwrap();
+    let mut s = m.state();
+    for (k, v) in [45usize, 210, 333].into_iter().enumerate() {
+        let i = h.first_particle + v;
+        s.particle_q[i] += Vec3::new(0.015 + 0.006 * k as f32, 0.004, 0.0);
+    }
+    let dt = 1e-7;
+    // Expected: every spring past its limit after one tiny step, from the CPU state (strains kept away from 0.2).
+    let mut g = solver(&ctx, &m, Integrator::SymplecticEuler);
+    g.upload_state(&s).unwrap();
+    let report = g.run(&m, dt, 1).unwrap();
+    let cand = g.candidates().unwrap();
+    CpuSolver::<f32>::default().step(&m, &mut s, dt).unwrap();
+    let (mut expected, mut borderline) = (Vec::new(), Vec::new());
+    for sp in 0..m.spring_count() {
+        let [i, j] = m.spring_indices[sp];
+        let l0 = m.spring_rest_length[sp] as f64;
+        let strain = ((s.particle_q[j as usize] - s.particle_q[i as usize]).length() as f64 - l0) / l0;
+        // Within f32 rounding of the limit either answer is right.
+        if (strain - 0.2).abs() < 1e-4 {
+            borderline.push(sp as u32);
+        } else if strain > 0.2 {
+            expected.push(sp as u32);
+        }
+    }
+    assert!(expected.len() >= 3 && borderline.is_empty(), "{expected:?} {borderline:?}");
+    assert_eq!(cand.springs, expected);
+    assert_eq!(report.spring_candidates as usize, expected.len());
+    // And the springs the CPU fracture pass breaks are those.
+    let mut f = Fracture::<f32>::new(FractureConfig { max_events_per_step: 1000, ..Default::default() });
+    let events = f.apply(&mut m, &mut s, dt);
+    let mut broken: Vec<u32> = events.iter().filter_map(|e| e.spring).collect();
+    broken.sort_unstable();
+    assert_eq!(broken, expected);
+}
+
+#[test]
+fn load_candidates_match_the_cpu() {
+    let Some(ctx) = gpu() else { return };
+    let mut b = ModelBuilder::new();
+    let opts = SoftBodyOptions {
+        gas: Gas::Pressure(2000.0),
+        stiffness: Stiffness::Membrane(2000.0),
+        fracture: Some(Breakable { load_limit: 8.0, ..Default::default() }),
+        ..Default::default()
+    };
+    b.add_soft_body(&Mesh::icosphere(0.25, 3), &opts).unwrap();
+    b.gravity(DVec3::ZERO);
+    let mut m: Model<f32> = b.finalize().unwrap();
+    let mut s = m.state();
+    // Dent three far-apart vertices inwards: their springs pull them back hard.
+    let dents = [0u32, 200, 500];
+    for &v in &dents {
+        let x = s.particle_q[v as usize];
+        s.particle_q[v as usize] = x * 0.9;
+    }
+    let dt = 1e-7;
+    let mut g = solver(&ctx, &m, Integrator::SymplecticEuler);
+    g.upload_state(&s).unwrap();
+    g.run(&m, dt, 1).unwrap();
+    let cand = g.candidates().unwrap();
+    CpuSolver::<f32>::default().step(&m, &mut s, dt).unwrap();
+    // The load as the fracture pass defines it, in f64: |springs' ks (l - L0) d̂ + the gas pressure's share|.
+    let p = m.body_pressures(&s)[0];
+    let x = |i: u32| s.particle_q[i as usize].as_dvec3();
+    let mut load = vec![DVec3::ZERO; m.particle_count()];
+    for (sp, &[i, j]) in m.spring_indices.iter().enumerate() {
+        let d = x(j) - x(i);
+        let f = d * (m.spring_stiffness[sp] as f64 * (d.length() - m.spring_rest_length[sp] as f64) / d.length());
+        load[i as usize] += f;
+        load[j as usize] -= f;
+    }
+    for t in &m.tri_indices {
+        let f = (x(t[1]) - x(t[0])).cross(x(t[2]) - x(t[0])) * (p / 6.0);
+        for &v in t {
+            load[v as usize] += f;
+        }
+    }
+    let limit = 8.0;
+    let expected: Vec<u32> = (0..m.particle_count() as u32).filter(|&i| load[i as usize].length() > limit).collect();
+    assert!(load.iter().all(|l| (l.length() - limit).abs() > 1e-3 * limit), "a load is too close to the limit");
+    assert!(dents.iter().all(|d| expected.contains(d)), "{expected:?}");
+    assert_eq!(cand.vertices, expected, "GPU load candidates");
+    // The CPU fracture pass breaks the dents (their neighbours, now next to a hole, may not break in the same step).
+    let mut f = Fracture::<f32>::new(FractureConfig { max_events_per_step: 1000, ..Default::default() });
+    let events = f.apply(&mut m, &mut s, dt);
+    let cores: Vec<u32> = events.iter().filter(|e| e.kind == FractureKind::Core).filter_map(|e| e.vertex).collect();
+    assert!(dents.iter().all(|d| cores.contains(d)), "CPU core events {cores:?}");
+    assert!(cores.iter().all(|c| expected.contains(c)));
+}
+
+#[test]
+fn only_the_kernels_a_model_needs_are_encoded() {
+    let Some(ctx) = gpu() else { return };
+    let run = |m: &Model<f32>, integrator| {
+        let mut g = solver(&ctx, m, integrator);
+        g.run(m, 1e-5, 2).unwrap();
+        g.passes().to_vec()
+    };
+    // Plain cloth: springs and gravity only.
+    let m: Model<f32> = scenes::benchmark_cloth(8).unwrap().finalize().unwrap();
+    assert_eq!(run(&m, Integrator::SymplecticEuler), vec!["integrate_symplectic_euler"; 2]);
+    assert_eq!(run(&m, Integrator::VelocityVerlet), ["integrate_verlet_first", "integrate_verlet_second"].repeat(2));
+    // Wind and the ground: the surface pass without the volume reduction, and collisions.
+    let m: Model<f32> = scenes::cloth_wind(8).unwrap().finalize().unwrap();
+    assert_eq!(
+        run(&m, Integrator::SymplecticEuler),
+        ["surface_cross", "surface_force", "integrate_symplectic_euler", "collide"].repeat(2)
+    );
+    // Gas: the volume reduction too.
+    let m: Model<f32> = scenes::ball_drop(&BallDrop::default()).unwrap().finalize().unwrap();
+    let p = run(&m, Integrator::SymplecticEuler);
+    assert_eq!(&p[..5], ["surface_cross", "surface_volume", "surface_force", "integrate_symplectic_euler", "collide"]);
+    assert!(!p.iter().any(|k| k.contains("check") || *k == "surface_caps"));
+    // Breakable springs: the strain check, nothing else added.
+    let mut b = ModelBuilder::new();
+    let opts =
+        ClothOptions { fracture: Some(Breakable { strain_limit: 0.5, ..Default::default() }), ..Default::default() };
+    b.add_cloth_grid(8, 8, 0.05, |p| p, &opts).unwrap();
+    let m: Model<f32> = b.finalize().unwrap();
+    assert_eq!(run(&m, Integrator::SymplecticEuler), ["integrate_symplectic_euler", "strain_check"].repeat(2));
+}
+
+#[test]
+fn fracture_runs_on_the_gpu_path_and_uploads_only_what_changed() {
+    let Some(ctx) = gpu() else { return };
+    let mut b = ModelBuilder::new();
+    let opts = SoftBodyOptions {
+        mass: Mass::Total(0.4),
+        stiffness: Stiffness::Membrane(2500.0),
+        damping: Damping::Ratio(0.3),
+        gas: Gas::Pressure(3000.0),
+        velocity: DVec3::new(0.0, -4.0, 0.0),
+        fracture: Some(Breakable { load_limit: 3.0, ..Default::default() }),
+        ..Default::default()
+    };
+    b.add_soft_body(&Mesh::icosphere(0.25, 4).translated(DVec3::new(0.0, 0.4, 0.0)), &opts).unwrap();
+    b.add_collider(Collider::ground(0.0));
+    let mut m: Model<f32> = b.finalize().unwrap();
+    m.reserve(2000, 8000, 4000);
+    let mut s = m.state();
+    let mut f = Fracture::<f32>::new(FractureConfig { max_events_per_step: 4, start_time: 0.01, ..Default::default() });
+    let mut g = solver(&ctx, &m, Integrator::SymplecticEuler);
+    let model_bytes =
+        m.particle_count() * 16 + m.spring_count() * 32 + m.tri_count() * 16 + m.particle_springs.items.len() * 4;
+    let mut events = Vec::new();
+    let mut uploads = Vec::new();
+    let mut v0 = None;
+    for _ in 0..300 {
+        let e = g.advance_with_fracture(&mut m, &mut s, &mut f, 5e-5, 10).unwrap();
+        if !e.is_empty() {
+            uploads.push(g.last_upload_bytes());
+            check_invariants(&m).unwrap();
+            // Volume right after the first puncture (the state was read back for it).
+            v0.get_or_insert(m.body_volumes(&s)[0]);
+        }
+        events.extend(e);
+    }
+    let v0 = v0.expect("a puncture");
+    g.read_state(&mut s).unwrap();
+    assert!(!events.is_empty(), "nothing broke");
+    assert!(s.particle_q.iter().all(|q| q.is_finite()));
+    assert!(s.particle_q.iter().all(|q| q.y > -1e-3), "a particle went through the ground");
+    let first = uploads[0];
+    eprintln!("{} events; first upload {first} bytes of a {model_bytes}-byte model", events.len());
+    assert!(first * 10 < model_bytes, "an event uploaded {first} of {model_bytes} bytes");
+    let v1 = m.body_volumes(&s)[0];
+    assert!(v1 < v0, "the punctured ball should shrink: {v0} -> {v1}");
+}
+
+#[test]
+fn bad_input_gets_clear_errors() {
+    let Some(ctx) = gpu() else { return };
+    let m: Model<f32> = scenes::benchmark_cloth(8).unwrap().finalize().unwrap();
+    let e = GpuSolver::new(
+        ctx.device.clone(),
+        ctx.queue.clone(),
+        &m,
+        GpuConfig { integrator: Integrator::Rk4, ..Default::default() },
+    );
+    assert!(matches!(e, Err(GpuError::UnsupportedIntegrator("rk4"))));
+    let mut g = solver(&ctx, &m, Integrator::SymplecticEuler);
+    assert!(matches!(g.run(&m, -1.0, 1), Err(GpuError::BadTimeStep(_))));
+    let other: Model<f32> = scenes::benchmark_cloth(9).unwrap().finalize().unwrap();
+    assert!(matches!(g.upload_state(&other.state()), Err(GpuError::StateMismatch { .. })));
+    // A step far past the stability limit blows up; the error says so instead of returning NaN.
+    let e = g.run(&m, 1.0, 50).unwrap_err();
+    assert!(matches!(e, GpuError::NonFinite { .. }), "{e}");
+    assert!(e.to_string().contains("stability limit"));
+    // Through the Solver trait too.
+    let mut s = m.state();
+    let mut g = solver(&ctx, &m, Integrator::SymplecticEuler);
+    let e = Solver::step(&mut g, &m, &mut s, 1e9).and_then(|_| Solver::step(&mut g, &m, &mut s, 1e9));
+    assert!(matches!(e, Err(StepError::NonFinite { .. })), "{e:?}");
+}
