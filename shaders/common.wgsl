@@ -39,16 +39,14 @@ struct Particle {
     load_limit: f32,
 }
 
+// A spring's parameters; its ends are in `spring_ends` (split so the largest array stays under the 128 MiB a
+// storage binding may hold on many devices: a 1024² cloth has 6.3 million springs).
 struct Spring {
-    i: u32,
-    j: u32,
     rest: f32,
     ks: f32,
     kd: f32,
     // Strain limit; negative: unbreakable (or broken).
     strain_limit: f32,
-    _pad0: u32,
-    _pad1: u32,
 }
 
 struct Body {
@@ -108,9 +106,10 @@ struct Collider {
 @group(0) @binding(16) var<storage, read> sdf: array<f32>;
 // Openings: per opening (body, first slot, slot count, 0) as 4 words, then the loop vertices of every slot.
 @group(0) @binding(17) var<storage, read> openings: array<u32>;
-// Per particle: start and length of its cap row in `cap_items` (pairs: opening, position in its loop).
-@group(0) @binding(18) var<storage, read> cap_rows: array<vec2<u32>>;
-@group(0) @binding(19) var<storage, read> cap_items: array<vec2<u32>>;
+@group(0) @binding(18) var<storage, read> spring_ends: array<vec2<u32>>;
+// Caps over openings, per particle: its row (start, length) at words 2i, 2i + 1; a row's items are pairs
+// (opening, position in its loop) from word 2 * (particles + start). One word when there are no caps.
+@group(0) @binding(19) var<storage, read> caps: array<u32>;
 // Per opening: (centre xyz, 6 V of the cap), (Σ edge gradients xyz, slot count)
 @group(0) @binding(20) var<storage, read_write> cap_data: array<vec4<f32>>;
 // [spring count, vertex count, spring ids (capacity), vertex ids (capacity)]

@@ -18,7 +18,8 @@ fn strain_check(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_work
     if (s >= spring_count()) { return; }
     let sp = springs[s];
     if (sp.strain_limit < 0.0) { return; }
-    let strain = (length(q_src[sp.j].xyz - q_src[sp.i].xyz) - sp.rest) / sp.rest;
+    let ends = spring_ends[s];
+    let strain = (length(q_src[ends.y].xyz - q_src[ends.x].xyz) - sp.rest) / sp.rest;
     if (strain > sp.strain_limit) {
         append(0u, s);
     }
@@ -38,7 +39,8 @@ fn load_check(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgr
     for (var k = 0u; k < row.y; k++) {
         let e = adj[row.x + k];
         let s = springs[e >> 1u];
-        let d = q_src[s.j].xyz - q_src[s.i].xyz;
+        let ends = spring_ends[e >> 1u];
+        let d = q_src[ends.y].xyz - q_src[ends.x].xyz;
         let l = length(d);
         if (l > 0.0 && s.ks != 0.0) {
             let sf = d * (s.ks * (l - s.rest) / l);

@@ -22,10 +22,12 @@ fn cap_edge(xi: vec3<f32>, xj: vec3<f32>, c: vec3<f32>) -> vec3<f32> {
 
 fn cap_force(i: u32) -> vec3<f32> {
     var f = vec3<f32>(0.0);
-    let row = cap_rows[i];
+    let start = caps[2u * i];
+    let len = caps[2u * i + 1u];
+    let base = 2u * particle_count();
     let n_gas = params.counts2.y;
-    for (var k = 0u; k < row.y; k++) {
-        let item = cap_items[row.x + k];
+    for (var k = 0u; k < len; k++) {
+        let item = vec2<u32>(caps[base + 2u * (start + k)], caps[base + 2u * (start + k) + 1u]);
         let o = item.x;
         let h = n_gas + 4u * o;
         let body = openings[h];
@@ -53,10 +55,11 @@ fn particle_force(i: u32) -> vec3<f32> {
     for (var k = 0u; k < row.y; k++) {
         let e = adj[row.x + k];
         let s = springs[e >> 1u];
+        let ends = spring_ends[e >> 1u];
         if ((e & 1u) == 0u) {
-            f += spring_force(s, q_src[s.j].xyz - xi, qd_src[s.j].xyz - vi);
+            f += spring_force(s, q_src[ends.y].xyz - xi, qd_src[ends.y].xyz - vi);
         } else {
-            f -= spring_force(s, xi - q_src[s.i].xyz, vi - qd_src[s.i].xyz);
+            f -= spring_force(s, xi - q_src[ends.x].xyz, vi - qd_src[ends.x].xyz);
         }
     }
     // misc.y: triangle forces present (pressure or wind); misc.z: caps over openings present.

@@ -59,14 +59,10 @@ pub struct GpuParticle {
     pub load_limit: f32,
 }
 
-/// `Spring` in WGSL.
+/// `Spring` in WGSL (the ends are a separate array).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
 pub struct GpuSpring {
-    /// End 0.
-    pub i: u32,
-    /// End 1.
-    pub j: u32,
     /// Rest length [m].
     pub rest: f32,
     /// Stiffness [N/m].
@@ -75,8 +71,6 @@ pub struct GpuSpring {
     pub kd: f32,
     /// Strain limit, negative for none (or broken).
     pub strain_limit: f32,
-    /// Padding.
-    pub pad: [u32; 2],
 }
 
 /// `Body` in WGSL.
@@ -150,11 +144,11 @@ pub(crate) struct Packed {
     pub rows: Vec<[u32; 4]>,
     pub adj: Vec<u32>,
     pub springs: Vec<GpuSpring>,
+    pub spring_ends: Vec<[u32; 2]>,
     pub tris: Vec<[u32; 4]>,
     pub bodies: Vec<GpuBody>,
     pub openings: Vec<u32>,
-    pub cap_rows: Vec<[u32; 2]>,
-    pub cap_items: Vec<[u32; 2]>,
+    pub caps: Vec<u32>,
     pub n_gas: u32,
     pub n_caps: u32,
     pub any_strain_limit: bool,
@@ -185,18 +179,15 @@ impl Packed {
         p.adj.extend_from_slice(&sp.items);
         p.adj.resize(off, 0);
         p.adj.extend_from_slice(&tr.items);
+        p.spring_ends.extend_from_slice(&m.spring_indices);
         p.springs.extend((0..m.spring_count()).map(|s| {
-            let [i, j] = m.spring_indices[s];
             let lim = m.spring_strain_limit[s];
             let live = m.spring_kind[s] != SpringKind::Broken;
             GpuSpring {
-                i,
-                j,
                 rest: m.spring_rest_length[s],
                 ks: m.spring_stiffness[s],
                 kd: m.spring_damping[s],
                 strain_limit: if live && lim.is_finite() { lim } else { -1.0 },
-                pad: [0; 2],
             }
         }));
         p.any_strain_limit = p.springs.iter().any(|s| s.strain_limit >= 0.0);
@@ -241,10 +232,12 @@ impl Packed {
                     per[v as usize].push([k as u32, at as u32]);
                 }
             }
-            for items in per {
-                p.cap_rows.push([p.cap_items.len() as u32, items.len() as u32]);
-                p.cap_items.extend(items);
+            let mut items_all: Vec<u32> = Vec::new();
+            for items in &per {
+                p.caps.extend_from_slice(&[(items_all.len() / 2) as u32, items.len() as u32]);
+                items_all.extend(items.iter().flatten());
             }
+            p.caps.extend(items_all);
         }
         p
     }
@@ -330,10 +323,11 @@ pub(crate) struct Mirror<T: Pod> {
 const BLOCK: usize = 64;
 
 impl<T: Pod> Mirror<T> {
-    pub fn new(device: &wgpu::Device, queue: &wgpu::Queue, label: &'static str, data: &[T]) -> Self {
+    /// `slack`: room to grow by a quarter (fracture appends) before the first reallocation; without it the
+    /// buffer is exact (a 1024² cloth's springs fill 100 of the 128 MiB a binding may hold on many devices).
+    pub fn new(device: &wgpu::Device, queue: &wgpu::Queue, label: &'static str, data: &[T], slack: bool) -> Self {
         let usage = wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::COPY_SRC;
-        // Room to grow by a quarter (fracture appends) before the first reallocation.
-        let capacity = (data.len() + data.len() / 4).max(4);
+        let capacity = (data.len() + if slack { data.len() / 4 } else { 0 }).max(4);
         let buffer = create(device, label, capacity * size_of::<T>(), usage);
         queue.write_buffer(&buffer, 0, bytemuck::cast_slice(data));
         Mirror { host: data.to_vec(), buffer, capacity, label, usage }

@@ -87,6 +87,18 @@ pub enum GpuError {
         /// Needed.
         need: u64,
     },
+    /// A model array is larger than one storage binding may be on this device.
+    #[error(
+        "the model's {buffer} need {bytes} bytes, more than the {limit} one storage buffer may hold on this device; use a smaller model or a device with a larger max_storage_buffer_binding_size"
+    )]
+    TooLarge {
+        /// Which array.
+        buffer: &'static str,
+        /// Its size.
+        bytes: u64,
+        /// The device's limit.
+        limit: u64,
+    },
     /// The integrator has no GPU kernels.
     #[error(
         "the GPU solver runs symplectic Euler and velocity Verlet; {0} runs on the CPU solver only (fissure_core::CpuSolver)"

@@ -122,8 +122,8 @@ pub struct GpuSolver {
     tris: Mirror<[u32; 4]>,
     bodies: Mirror<layout::GpuBody>,
     openings: Mirror<u32>,
-    cap_rows: Mirror<[u32; 2]>,
-    cap_items: Mirror<[u32; 2]>,
+    spring_ends: Mirror<[u32; 2]>,
+    caps: Mirror<u32>,
     colliders: Mirror<GpuCollider>,
     sdf: Mirror<f32>,
     scratch: Scratch,
@@ -257,23 +257,39 @@ impl GpuSolver {
                 by_name.push((entry, p));
             }
         }
+        // Models that can change get room to grow; the others exact buffers.
+        let slack = model.has_fracture() || !model.openings.is_empty();
         let items = model.particle_springs.items.len();
         let packed = Packed::new(model, items + items / 4);
+        let max = limits.max_storage_buffer_binding_size;
+        let n = model.particle_count() as u64;
+        let slack_factor = if slack { 1.25 } else { 1.0 };
+        for (buffer, bytes) in [
+            ("positions", n * 16),
+            ("springs", packed.springs.len() as u64 * 16),
+            ("adjacency", packed.adj.len() as u64 * 4),
+            ("triangles", packed.tris.len() as u64 * 16),
+        ] {
+            let bytes = (bytes as f64 * slack_factor) as u64;
+            if bytes > max {
+                return Err(GpuError::TooLarge { buffer, bytes, limit: max });
+            }
+        }
         let mut sdf_host = Vec::new();
         let colliders_host = layout::pack_colliders(&model.colliders, config.sdf_cells, &mut sdf_host)?;
-        let rows = Mirror::new(&device, &queue, "rows", &packed.rows);
-        let particles = Mirror::new(&device, &queue, "particles", &packed.particles);
-        let adj = Mirror::new(&device, &queue, "adj", &packed.adj);
-        let springs = Mirror::new(&device, &queue, "springs", &packed.springs);
-        let tris = Mirror::new(&device, &queue, "tris", &packed.tris);
-        let bodies = Mirror::new(&device, &queue, "bodies", &packed.bodies);
-        let openings = Mirror::new(&device, &queue, "openings", &packed.openings);
-        let cap_rows = Mirror::new(&device, &queue, "cap_rows", &packed.cap_rows);
-        let cap_items = Mirror::new(&device, &queue, "cap_items", &packed.cap_items);
-        let colliders = Mirror::new(&device, &queue, "colliders", &colliders_host);
-        let sdf = Mirror::new(&device, &queue, "sdf", &sdf_host);
+        let rows = Mirror::new(&device, &queue, "rows", &packed.rows, slack);
+        let particles = Mirror::new(&device, &queue, "particles", &packed.particles, slack);
+        let adj = Mirror::new(&device, &queue, "adj", &packed.adj, slack);
+        let springs = Mirror::new(&device, &queue, "springs", &packed.springs, slack);
+        let tris = Mirror::new(&device, &queue, "tris", &packed.tris, slack);
+        let bodies = Mirror::new(&device, &queue, "bodies", &packed.bodies, slack);
+        let openings = Mirror::new(&device, &queue, "openings", &packed.openings, slack);
+        let spring_ends = Mirror::new(&device, &queue, "spring_ends", &packed.spring_ends, slack);
+        let caps = Mirror::new(&device, &queue, "caps", &packed.caps, slack);
+        let colliders = Mirror::new(&device, &queue, "colliders", &colliders_host, slack);
+        let sdf = Mirror::new(&device, &queue, "sdf", &sdf_host, slack);
         let n = model.particle_count();
-        let state_capacity = n + n / 4;
+        let state_capacity = n + if slack { n / 4 } else { 0 };
         let su = wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::COPY_SRC;
         let mkq = |l| layout::create(&device, l, state_capacity * 16, su);
         let (q, qd) = ([mkq("q0"), mkq("q1")], [mkq("qd0"), mkq("qd1")]);
@@ -306,8 +322,8 @@ impl GpuSolver {
                 &colliders.buffer,
                 &sdf.buffer,
                 &openings.buffer,
-                &cap_rows.buffer,
-                &cap_items.buffer,
+                &spring_ends.buffer,
+                &caps.buffer,
             ],
             &scratch,
             &candidates,
@@ -333,8 +349,8 @@ impl GpuSolver {
             tris,
             bodies,
             openings,
-            cap_rows,
-            cap_items,
+            spring_ends,
+            caps,
             colliders,
             sdf,
             scratch,
@@ -390,7 +406,7 @@ impl GpuSolver {
         s: &Scratch,
         candidates: &wgpu::Buffer,
     ) -> [wgpu::BindGroup; 2] {
-        let [particles, rows, adj, springs, tris, bodies, colliders, sdf, openings, cap_rows, cap_items] = m;
+        let [particles, rows, adj, springs, tris, bodies, colliders, sdf, openings, spring_ends, caps] = m;
         [0, 1].map(|cur| {
             let other = 1 - cur;
             let list: [(u32, &wgpu::Buffer); 22] = [
@@ -412,8 +428,8 @@ impl GpuSolver {
                 (15, colliders),
                 (16, sdf),
                 (17, openings),
-                (18, cap_rows),
-                (19, cap_items),
+                (18, spring_ends),
+                (19, caps),
                 (20, &s.cap_data),
                 (21, candidates),
             ];
@@ -446,8 +462,8 @@ impl GpuSolver {
                 &self.colliders.buffer,
                 &self.sdf.buffer,
                 &self.openings.buffer,
-                &self.cap_rows.buffer,
-                &self.cap_items.buffer,
+                &self.spring_ends.buffer,
+                &self.caps.buffer,
             ],
             &self.scratch,
             &self.candidates,
@@ -773,8 +789,8 @@ impl GpuSolver {
         add(self.tris.sync(d, q, &p.tris));
         add(self.bodies.sync(d, q, &p.bodies));
         add(self.openings.sync(d, q, &p.openings));
-        add(self.cap_rows.sync(d, q, &p.cap_rows));
-        add(self.cap_items.sync(d, q, &p.cap_items));
+        add(self.spring_ends.sync(d, q, &p.spring_ends));
+        add(self.caps.sync(d, q, &p.caps));
         self.packed = p;
         let n = m.particle_count();
         if n != self.particle_count {
