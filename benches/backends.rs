@@ -1,7 +1,7 @@
 //! Steps per second and particle-steps per second of each backend on the sizes: the benchmark cloth
 //! (`scenes::benchmark_cloth`: spacing 1 cm, 1 g per particle, structural + shear + bend springs of 1000 N/m,
 //! two corners pinned) at 32², 128², 512² and 1024² particles, and a pressurised icosphere ball of 40,962
-//! vertices on the ground (gas, a collider). Symplectic Euler, dt = 1e-4 s.
+//! vertices on the ground (gas, a collider). Symplectic Euler, dt = 1e-4 s (1e-5 s for the 40,962-vertex ball, whose stability limit is ~2.6e-5 s).
 //!
 //! - CPU: `CpuSolver` on all rayon threads, one step per iteration.
 //! - GPU: `GpuSolver` on the adapter `GpuContext` picks (its name is printed), `substeps` steps per submission
@@ -22,6 +22,8 @@ const DT: f64 = 1e-4;
 struct Case {
     name: String,
     model: Model<f32>,
+    /// Step [s]: below each scene's stability limit.
+    dt: f64,
 }
 
 fn cases(quick: bool) -> Vec<Case> {
@@ -29,7 +31,7 @@ fn cases(quick: bool) -> Vec<Case> {
     let sizes: &[usize] = if quick { &[32] } else { &[32, 128, 512, 1024] };
     for &n in sizes {
         let model = fissure::scenes::benchmark_cloth(n).unwrap().finalize().unwrap();
-        out.push(Case { name: format!("cloth_{n}x{n}"), model });
+        out.push(Case { name: format!("cloth_{n}x{n}"), model, dt: DT });
     }
     let sub = if quick { 3 } else { 6 };
     let mut b = ModelBuilder::new();
@@ -43,7 +45,9 @@ fn cases(quick: bool) -> Vec<Case> {
     b.add_soft_body(&Mesh::icosphere(0.25, sub).translated(DVec3::new(0.0, 0.26, 0.0)), &opts).unwrap();
     b.add_collider(Collider::ground(0.0));
     let model = b.finalize().unwrap();
-    out.push(Case { name: format!("ball_{}", model.particle_count()), model });
+    // 10 µg particles on 2500 N/m membrane springs: the Gershgorin bound puts the stable step near 2.6e-5 s.
+    let dt = if sub >= 6 { 1e-5 } else { DT };
+    out.push(Case { name: format!("ball_{}", model.particle_count()), model, dt });
     out
 }
 
@@ -92,18 +96,18 @@ fn bench(c: &mut Criterion) {
         let m = &case.model;
         let mut solver = CpuSolver::<f32>::default();
         let mut state = m.state();
-        for _ in 0..5 {
-            solver.step(m, &mut state, DT).unwrap();
-        }
         let reps = (2_000_000 / m.particle_count()).clamp(3, 500);
+        for _ in 0..reps {
+            solver.step(m, &mut state, case.dt).unwrap();
+        }
         let t0 = Instant::now();
         for _ in 0..reps {
-            solver.step(m, &mut state, DT).unwrap();
+            solver.step(m, &mut state, case.dt).unwrap();
         }
         row(case, "cpu", &cpu_name, t0.elapsed().as_secs_f64() / reps as f64);
         group.bench_function(format!("{}_cpu", case.name), |b| {
             b.iter(|| {
-                solver.step(m, &mut state, DT).unwrap();
+                solver.step(m, &mut state, case.dt).unwrap();
                 black_box(&state);
             })
         });
@@ -113,18 +117,18 @@ fn bench(c: &mut Criterion) {
         let m = &case.model;
         let mut g = GpuSolver::new(ctx.device.clone(), ctx.queue.clone(), m, GpuConfig::default()).unwrap();
         let k = substeps(m.particle_count());
-        g.run(m, DT, k).unwrap();
+        g.run(m, case.dt, k).unwrap();
         let submissions = (20_000_000 / (m.particle_count() * k)).clamp(2, 50);
         let t0 = Instant::now();
         for _ in 0..submissions {
-            g.run(m, DT, k).unwrap();
+            g.run(m, case.dt, k).unwrap();
         }
         g.wait().unwrap();
         let per_step = t0.elapsed().as_secs_f64() / (submissions * k) as f64;
         row(case, &format!("gpu ({k} substeps/submission)"), &gpu_name, per_step);
         group.bench_function(format!("{}_gpu_{k}_substeps", case.name), |b| {
             b.iter(|| {
-                g.run(m, DT, k).unwrap();
+                g.run(m, case.dt, k).unwrap();
             })
         });
     }
