@@ -85,23 +85,27 @@ fn flag_blown(x: vec3<f32>, v: vec3<f32>) {
     }
 }
 
-// Symplectic Euler, the seed's eqs. (3)-(5): v += dt a(x, v); x += dt v.
-@compute @workgroup_size(64)
-fn integrate_symplectic_euler(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>) {
-    let i = flat_index(gid, nwg);
-    if (i >= particle_count()) { return; }
+// `v += h a(x, v); x += dt v`, from the source state into the destination; pinned particles are copied.
+fn kick_drift(i: u32, h: f32) {
     let w = particles[i].inv_mass;
     if (w == 0.0) {
         q_dst[i] = q_src[i];
         qd_dst[i] = qd_src[i];
         return;
     }
-    let dt = clock.dt;
-    let v = qd_src[i].xyz + particle_force(i) * (w * dt);
-    let x = q_src[i].xyz + v * dt;
+    let v = qd_src[i].xyz + particle_force(i) * (w * h);
+    let x = q_src[i].xyz + v * clock.dt;
     qd_dst[i] = vec4<f32>(v, 0.0);
     q_dst[i] = vec4<f32>(x, 0.0);
     flag_blown(x, v);
+}
+
+// Symplectic Euler, the seed's eqs. (3)-(5): v += dt a(x, v); x += dt v.
+@compute @workgroup_size(64)
+fn integrate_symplectic_euler(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>) {
+    let i = flat_index(gid, nwg);
+    if (i >= particle_count()) { return; }
+    kick_drift(i, clock.dt);
 }
 
 // Velocity Verlet, first half: kick half a step, drift a whole step.
@@ -109,16 +113,7 @@ fn integrate_symplectic_euler(@builtin(global_invocation_id) gid: vec3<u32>, @bu
 fn integrate_verlet_first(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>) {
     let i = flat_index(gid, nwg);
     if (i >= particle_count()) { return; }
-    let w = particles[i].inv_mass;
-    if (w == 0.0) {
-        q_dst[i] = q_src[i];
-        qd_dst[i] = qd_src[i];
-        return;
-    }
-    let dt = clock.dt;
-    let v = qd_src[i].xyz + particle_force(i) * (w * (dt * 0.5));
-    qd_dst[i] = vec4<f32>(v, 0.0);
-    q_dst[i] = vec4<f32>(q_src[i].xyz + v * dt, 0.0);
+    kick_drift(i, 0.5 * clock.dt);
 }
 
 // Velocity Verlet, second half: kick with the forces at the new positions and half-step velocities.
