@@ -141,6 +141,22 @@ pub struct FractureEvent {
     pub new_body: Option<u32>,
 }
 
+impl FractureEvent {
+    /// A spring-mode event: spring `sp` of `body` broke at `position` (its virtual nodes, if any, in `new_particles`).
+    fn spring(time: f64, position: DVec3, body: u32, sp: u32, new_particles: Vec<u32>) -> Self {
+        FractureEvent {
+            kind: FractureKind::Spring,
+            time,
+            position,
+            body,
+            spring: Some(sp),
+            vertex: None,
+            new_particles,
+            new_body: None,
+        }
+    }
+}
+
 /// What a call of [`Fracture::apply`] changed, for solvers that mirror the model (a GPU re-uploads only this).
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct TopologyDelta {
@@ -471,16 +487,7 @@ impl<R: Real> Fracture<R> {
             self.delta.springs.push(sp);
             self.touch(a);
             self.touch(b);
-            events.push(FractureEvent {
-                kind: FractureKind::Spring,
-                time: s.time,
-                position: mid,
-                body,
-                spring: Some(sp),
-                vertex: None,
-                new_particles: Vec::new(),
-                new_body: None,
-            });
+            events.push(FractureEvent::spring(s.time, mid, body, sp, Vec::new()));
             return true;
         }
         if l0.to_f64() < self.config.min_rest_length {
@@ -546,16 +553,7 @@ impl<R: Real> Fracture<R> {
         for v in [a, b, na, nb].into_iter().chain(thirds.iter().copied()) {
             self.touch(v);
         }
-        events.push(FractureEvent {
-            kind: FractureKind::Spring,
-            time: s.time,
-            position: mid,
-            body,
-            spring: Some(sp),
-            vertex: None,
-            new_particles: vec![na, nb],
-            new_body: None,
-        });
+        events.push(FractureEvent::spring(s.time, mid, body, sp, vec![na, nb]));
         for v in [a, b].into_iter().chain(thirds) {
             self.separate(m, s, v, events);
         }

@@ -120,6 +120,9 @@ pub enum GpuError {
         /// Particles in the model.
         model: usize,
     },
+    /// The model gained particles since the state was uploaded.
+    #[error("the model gained particles: upload the state (GpuSolver::upload_state) before running")]
+    StateStale,
     /// The time step is not positive and finite.
     #[error("time step must be positive and finite, got {0}")]
     BadTimeStep(f64),

@@ -107,6 +107,7 @@ pub struct GpuSolver {
     config: GpuConfig,
     pipelines: Pipelines,
     layout0: wgpu::BindGroupLayout,
+    layout1: wgpu::BindGroupLayout,
     clock_bind: wgpu::BindGroup,
     clock: wgpu::Buffer,
     clock_capacity: usize,
@@ -133,7 +134,6 @@ pub struct GpuSolver {
     /// Which of the two state buffers holds the current state.
     cur: usize,
     packed: Packed,
-    particle_count: usize,
     time: f64,
     /// The state must be uploaded before the next run (particles were added).
     state_stale: bool,
@@ -142,28 +142,11 @@ pub struct GpuSolver {
     timers: StageTimers,
 }
 
-fn storage(binding: u32, read_only: bool) -> wgpu::BindGroupLayoutEntry {
+fn buffer_entry(binding: u32, ty: wgpu::BufferBindingType, dynamic: bool, min: u64) -> wgpu::BindGroupLayoutEntry {
     wgpu::BindGroupLayoutEntry {
         binding,
         visibility: wgpu::ShaderStages::COMPUTE,
-        ty: wgpu::BindingType::Buffer {
-            ty: wgpu::BufferBindingType::Storage { read_only },
-            has_dynamic_offset: false,
-            min_binding_size: None,
-        },
-        count: None,
-    }
-}
-
-fn uniform(binding: u32, dynamic: bool) -> wgpu::BindGroupLayoutEntry {
-    wgpu::BindGroupLayoutEntry {
-        binding,
-        visibility: wgpu::ShaderStages::COMPUTE,
-        ty: wgpu::BindingType::Buffer {
-            ty: wgpu::BufferBindingType::Uniform,
-            has_dynamic_offset: dynamic,
-            min_binding_size: wgpu::BufferSize::new(size_of::<Clock>() as u64),
-        },
+        ty: wgpu::BindingType::Buffer { ty, has_dynamic_offset: dynamic, min_binding_size: wgpu::BufferSize::new(min) },
         count: None,
     }
 }
@@ -178,14 +161,17 @@ fn groups(n: usize) -> (u32, u32) {
     (x, g.div_ceil(x))
 }
 
-fn scratch(device: &wgpu::Device, m: &Model<f32>, p: &Packed) -> Scratch {
+/// Entries the scratch buffers need: triangles (with a surface pass), bodies, volume partials, capped openings.
+fn scratch_sizes(m: &Model<f32>, p: &Packed) -> [usize; 4] {
     let surface = m.has_pressure() || m.has_wind();
     let nt = if surface { m.tri_count() } else { 0 };
     let (gx, gy) = groups(m.tri_count());
     let np = if p.n_gas > 0 { (gx * gy * p.n_gas) as usize } else { 0 };
-    let want = [nt, m.body_count(), np, p.n_caps as usize];
-    let grow = |n: usize| n + n / 4;
-    let sized = want.map(grow);
+    [nt, m.body_count(), np, p.n_caps as usize]
+}
+
+fn scratch(device: &wgpu::Device, m: &Model<f32>, p: &Packed) -> Scratch {
+    let sized = scratch_sizes(m, p).map(|n| n + n / 4);
     let rw = wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::COPY_SRC;
     Scratch {
         tri_cross: layout::create(device, "tri_cross", sized[0] * 16, rw),
@@ -219,20 +205,18 @@ impl GpuSolver {
                 need: STORAGE_BINDINGS as u64,
             });
         }
-        let mut entries = vec![uniform(0, false)];
-        entries[0].ty = wgpu::BindingType::Buffer {
-            ty: wgpu::BufferBindingType::Uniform,
-            has_dynamic_offset: false,
-            min_binding_size: wgpu::BufferSize::new(size_of::<Params>() as u64),
-        };
-        entries.extend((1..=STORAGE_BINDINGS).map(|b| storage(b, !READ_WRITE.contains(&b))));
+        let uniform = wgpu::BufferBindingType::Uniform;
+        let mut entries = vec![buffer_entry(0, uniform, false, size_of::<Params>() as u64)];
+        entries.extend((1..=STORAGE_BINDINGS).map(|b| {
+            buffer_entry(b, wgpu::BufferBindingType::Storage { read_only: !READ_WRITE.contains(&b) }, false, 0)
+        }));
         let layout0 = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("fissure model+state"),
             entries: &entries,
         });
         let layout1 = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("fissure clock"),
-            entries: &[uniform(0, true)],
+            entries: &[buffer_entry(0, uniform, true, size_of::<Clock>() as u64)],
         });
         let pl = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
             label: Some("fissure"),
@@ -334,6 +318,7 @@ impl GpuSolver {
             config,
             pipelines: Pipelines { by_name },
             layout0,
+            layout1,
             clock_bind,
             clock,
             clock_capacity,
@@ -359,7 +344,6 @@ impl GpuSolver {
             bind,
             cur: 0,
             packed,
-            particle_count: n,
             time: 0.0,
             state_stale: false,
             passes: Vec::new(),
@@ -476,6 +460,11 @@ impl GpuSolver {
         self.queue.write_buffer(&self.params, 0, bytemuck::bytes_of(&self.params_host));
     }
 
+    /// Particles of the model the buffers hold.
+    fn particle_count(&self) -> usize {
+        self.packed.particles.len()
+    }
+
     /// The settings.
     pub fn config(&self) -> &GpuConfig {
         &self.config
@@ -508,7 +497,7 @@ impl GpuSolver {
 
     /// Writes `state` (positions, velocities, time) to the GPU.
     pub fn upload_state(&mut self, state: &State<f32>) -> Result<(), GpuError> {
-        let n = self.particle_count;
+        let n = self.particle_count();
         if state.particle_q.len() != n || state.particle_qd.len() != n {
             return Err(GpuError::StateMismatch { state: state.particle_q.len(), model: n });
         }
@@ -522,7 +511,7 @@ impl GpuSolver {
 
     /// Reads the current positions, velocities and time into `state` (a synchronous read-back).
     pub fn read_state(&mut self, state: &mut State<f32>) -> Result<(), GpuError> {
-        let n = self.particle_count;
+        let n = self.particle_count();
         let (q, qd) = (self.read_vec4(&self.q[self.cur], n)?, self.read_vec4(&self.qd[self.cur], n)?);
         state.particle_q.clear();
         state.particle_q.extend(q.iter().map(|v| Vec3::new(v[0], v[1], v[2])));
@@ -567,8 +556,7 @@ impl GpuSolver {
         if entries > self.clock_capacity {
             self.clock_capacity = entries.next_power_of_two();
             self.clock = Self::clock_buffer(&self.device, self.clock_capacity);
-            let layout1 = self.pipelines.get("integrate_symplectic_euler").get_bind_group_layout(1);
-            self.clock_bind = Self::clock_bind(&self.device, &layout1, &self.clock);
+            self.clock_bind = Self::clock_bind(&self.device, &self.layout1, &self.clock);
         }
     }
 
@@ -623,8 +611,10 @@ impl GpuSolver {
     }
 
     fn encode_step(&mut self, pass: &mut wgpu::ComputePass<'_>, m: &Model<f32>, k: usize) {
-        let surface = m.has_pressure() || m.has_wind();
-        let np = groups(self.particle_count);
+        // The model's terms as packed (not re-derived from the model at every substep).
+        let surface = self.params_host.misc[1] != 0;
+        let colliders = self.params_host.counts2[0] > 0;
+        let np = groups(self.particle_count());
         let (c0, c1) = (2 * k, 2 * k + 1);
         let cur = self.cur;
         match self.config.integrator {
@@ -637,7 +627,7 @@ impl GpuSolver {
                     self.encode_surface(pass, m, 1 - cur, c1, true);
                 }
                 self.dispatch(pass, "integrate_verlet_second", 1 - cur, c1, np);
-                if m.has_colliders() {
+                if colliders {
                     self.dispatch(pass, "collide", 1 - cur, c1, np);
                 }
             }
@@ -646,19 +636,19 @@ impl GpuSolver {
                     self.encode_surface(pass, m, cur, c0, true);
                 }
                 self.dispatch(pass, "integrate_symplectic_euler", cur, c0, np);
-                if m.has_colliders() {
+                if colliders {
                     self.dispatch(pass, "collide", cur, c1, np);
                 }
                 self.cur = 1 - cur;
             }
         }
-        if m.has_fracture() {
+        if self.packed.any_strain_limit || self.packed.any_load_limit {
             let cur = self.cur;
             if self.packed.any_strain_limit {
                 self.dispatch(pass, "strain_check", cur, c1, groups(m.spring_count()));
             }
             if self.packed.any_load_limit {
-                if m.has_pressure() {
+                if self.packed.n_gas > 0 {
                     self.encode_surface(pass, m, cur, c1, false);
                 }
                 self.dispatch(pass, "load_check", cur, c1, np);
@@ -667,13 +657,11 @@ impl GpuSolver {
     }
 
     fn check_model(&self, m: &Model<f32>) -> Result<(), GpuError> {
-        if m.particle_count() != self.particle_count {
-            return Err(GpuError::StateMismatch { state: self.particle_count, model: m.particle_count() });
+        if m.particle_count() != self.particle_count() {
+            return Err(GpuError::StateMismatch { state: self.particle_count(), model: m.particle_count() });
         }
         if self.state_stale {
-            return Err(GpuError::Readback(
-                "the model gained particles: upload the state (GpuSolver::upload_state) before running".into(),
-            ));
+            return Err(GpuError::StateStale);
         }
         Ok(())
     }
@@ -754,10 +742,10 @@ impl GpuSolver {
             if m.has_pressure() || m.has_wind() {
                 self.encode_surface(&mut pass, m, cur, 0, true);
             }
-            self.dispatch(&mut pass, "net_forces", cur, 0, groups(self.particle_count));
+            self.dispatch(&mut pass, "net_forces", cur, 0, groups(self.particle_count()));
         }
         self.queue.submit([enc.finish()]);
-        let f = self.read_vec4(&self.q[1 - self.cur], self.particle_count)?;
+        let f = self.read_vec4(&self.q[1 - self.cur], self.particle_count())?;
         Ok(f.iter().map(|v| Vec3::new(v[0], v[1], v[2])).collect())
     }
 
@@ -791,36 +779,23 @@ impl GpuSolver {
         add(self.openings.sync(d, q, &p.openings));
         add(self.spring_ends.sync(d, q, &p.spring_ends));
         add(self.caps.sync(d, q, &p.caps));
+        let old_count = self.particle_count();
         self.packed = p;
         let n = m.particle_count();
-        if n != self.particle_count {
+        if n != old_count {
+            // Particles were added: the state must be uploaded before the next run (the old contents are not
+            // needed, so a reallocation copies nothing).
             self.state_stale = true;
             if n > self.state_capacity {
-                // Keep the current state; the new particles come with the next upload.
                 self.state_capacity = n + n / 4;
                 let su = wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::COPY_SRC;
-                let bytes_old = (self.particle_count * 16) as u64;
-                let mut enc = self.device.create_command_encoder(&Default::default());
-                for k in 0..2 {
-                    let (nq, nqd) = (
-                        layout::create(&self.device, "q", self.state_capacity * 16, su),
-                        layout::create(&self.device, "qd", self.state_capacity * 16, su),
-                    );
-                    enc.copy_buffer_to_buffer(&self.q[k], 0, &nq, 0, bytes_old);
-                    enc.copy_buffer_to_buffer(&self.qd[k], 0, &nqd, 0, bytes_old);
-                    self.q[k] = nq;
-                    self.qd[k] = nqd;
-                }
-                self.queue.submit([enc.finish()]);
+                let mk = |l| layout::create(&self.device, l, self.state_capacity * 16, su);
+                self.q = [mk("q0"), mk("q1")];
+                self.qd = [mk("qd0"), mk("qd1")];
                 realloc = true;
             }
-            self.particle_count = n;
         }
-        let (gx, gy) = groups(m.tri_count());
-        let np = if self.packed.n_gas > 0 { (gx * gy * self.packed.n_gas) as usize } else { 0 };
-        let surface = if m.has_pressure() || m.has_wind() { m.tri_count() } else { 0 };
-        let want = [surface, m.body_count(), np, self.packed.n_caps as usize];
-        if (0..4).any(|k| want[k] > self.scratch.sized[k]) {
+        if (0..4).any(|k| scratch_sizes(m, &self.packed)[k] > self.scratch.sized[k]) {
             self.scratch = scratch(&self.device, m, &self.packed);
             realloc = true;
         }
@@ -855,12 +830,28 @@ impl GpuSolver {
         self.read_state(state)?;
         let events = fracture.apply(m, state, dt * steps as f64);
         let changed = !fracture.last_delta().is_empty() || !events.is_empty();
-        if changed || !m.openings.is_empty() {
-            // Topology, or just the gas that leaked.
+        if changed {
             self.sync_model(m);
             self.upload_state(state)?;
+        } else {
+            // Only gas leaked: the bodies' gas amounts are all that changed.
+            self.sync_gas(m);
         }
         Ok(events)
+    }
+
+    /// Uploads the bodies' gas amounts after a leak (the state and topology unchanged). A body whose gas ran out
+    /// changes the set of gas bodies, which the full [`GpuSolver::sync_model`] handles.
+    fn sync_gas(&mut self, m: &Model<f32>) {
+        let same_set =
+            self.packed.bodies.iter().zip(&m.body_gas_amount).all(|(b, &g)| (b.gas_slot != layout::NONE) == (g > 0.0));
+        if !same_set || self.packed.bodies.len() != m.body_count() {
+            return self.sync_model(m);
+        }
+        for (b, &g) in self.packed.bodies.iter_mut().zip(&m.body_gas_amount) {
+            b.gas = g;
+        }
+        self.last_upload = self.bodies.sync(&self.device, &self.queue, &self.packed.bodies).1;
     }
 }
 
