@@ -108,15 +108,31 @@ fn integrate_symplectic_euler(@builtin(global_invocation_id) gid: vec3<u32>, @bu
     kick_drift(i, clock.dt);
 }
 
-// Velocity Verlet, first half: kick half a step, drift a whole step.
+// Velocity Verlet, first half: kick half a step, drift a whole step. The velocity stored is not the half-step
+// one but its extrapolation to the step's end, v_n + dt a_n: the second kick evaluates the velocity-dependent
+// forces (damping, drag) there, which keeps the scheme second order with damping (at v_{n+1/2} it would be first
+// order), and recovers v_{n+1/2} as the mean of it and v_n, which the other state buffer still holds.
 @compute @workgroup_size(64)
 fn integrate_verlet_first(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>) {
     let i = flat_index(gid, nwg);
     if (i >= particle_count()) { return; }
-    kick_drift(i, 0.5 * clock.dt);
+    let w = particles[i].inv_mass;
+    if (w == 0.0) {
+        q_dst[i] = q_src[i];
+        qd_dst[i] = qd_src[i];
+        return;
+    }
+    let a = particle_force(i) * w;
+    let x = q_src[i].xyz + (qd_src[i].xyz + a * (0.5 * clock.dt)) * clock.dt;
+    let vp = qd_src[i].xyz + a * clock.dt;
+    qd_dst[i] = vec4<f32>(vp, 0.0);
+    q_dst[i] = vec4<f32>(x, 0.0);
+    flag_blown(x, vp);
 }
 
-// Velocity Verlet, second half: kick with the forces at the new positions and half-step velocities.
+// Velocity Verlet, second half: kick v_{n+1/2} = (v_pred + v_n) / 2 with the forces at the new positions and the
+// extrapolated velocities. Bound with the buffers swapped, so `qd_dst` still holds v_n (read before it is
+// overwritten, by the same invocation).
 @compute @workgroup_size(64)
 fn integrate_verlet_second(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>) {
     let i = flat_index(gid, nwg);
@@ -127,7 +143,8 @@ fn integrate_verlet_second(@builtin(global_invocation_id) gid: vec3<u32>, @built
         qd_dst[i] = qd_src[i];
         return;
     }
-    let v = qd_src[i].xyz + particle_force(i) * (w * (clock.dt * 0.5));
+    let vh = 0.5 * (qd_src[i].xyz + qd_dst[i].xyz);
+    let v = vh + particle_force(i) * (w * (clock.dt * 0.5));
     qd_dst[i] = vec4<f32>(v, 0.0);
     flag_blown(q_src[i].xyz, v);
 }

@@ -132,9 +132,7 @@ pub enum ModelError {
 #[derive(Debug, Error, Clone, PartialEq)]
 pub enum StepError {
     /// The state became NaN or infinite.
-    #[error(
-        "state blew up at t = {time:.6} s: particle {particle} has a non-finite {what}; the time step {dt:e} s is probably above the stability limit (try more substeps, the implicit integrator, or softer springs)"
-    )]
+    #[error("state blew up at t = {time:.6} s: particle {particle} has a non-finite {what}; {}", blow_up_cause(*.dt, *.stable_dt))]
     NonFinite {
         /// Simulation time.
         time: f64,
@@ -144,6 +142,9 @@ pub enum StepError {
         particle: usize,
         /// position or velocity.
         what: &'static str,
+        /// The integrator's stability bound for the mesh [s] (Gershgorin, [`crate::stability`]); infinite for
+        /// the implicit integrator, NaN when the backend does not know it.
+        stable_dt: f64,
     },
     /// The time step is not positive and finite.
     #[error("time step must be positive and finite, got {0}")]
@@ -164,7 +165,28 @@ pub enum StepError {
         /// Final relative residual.
         residual: f64,
     },
+    /// A solver setting is out of range.
+    #[error("invalid solver setting: {0}")]
+    Config(String),
     /// A solver backend (the GPU) failed: device lost, read-back failed, model not supported.
     #[error("solver backend failed: {0}")]
     Backend(String),
+}
+
+/// Names the likely cause of a blow-up from the step and the mesh's stability bound.
+fn blow_up_cause(dt: f64, stable_dt: f64) -> String {
+    if stable_dt.is_nan() {
+        format!(
+            "the time step {dt:e} s is probably above the stability limit (try more substeps, the implicit integrator, or softer springs)"
+        )
+    } else if dt > stable_dt {
+        format!(
+            "the time step {dt:e} s is {:.3}× the springs' stability bound {stable_dt:e} s: take substeps (or set `SolverConfig::substep_safety`), use the implicit integrator, or soften the springs",
+            dt / stable_dt
+        )
+    } else {
+        format!(
+            "the time step {dt:e} s is within the springs' stability bound {stable_dt:e} s, so something else drove it: extreme gas pressure, a collider moving through the body, wind, or a state that was already broken"
+        )
+    }
 }

@@ -14,6 +14,7 @@ pub mod model;
 mod par;
 pub mod real;
 pub mod solver;
+pub mod stability;
 pub mod timers;
 pub mod topology;
 pub mod wind;
@@ -30,5 +31,6 @@ pub use model::{
 pub use parry3d;
 pub use real::{Real, Vector3};
 pub use solver::{CgStats, CpuSolver, Integrator, Solver, SolverConfig};
+pub use stability::{StabilityBound, max_stable_dt_1dof};
 pub use timers::{Stage, StageTimers};
 pub use wind::{Aero, WindField};

@@ -21,7 +21,13 @@ fn oscillator(m: f64, k: f64, amp: f64) -> (Model<f64>, State<f64>, f64) {
 }
 
 fn solver(integrator: Integrator) -> CpuSolver<f64> {
-    CpuSolver::new(SolverConfig { integrator, cg_tolerance: 1e-14, cg_max_iterations: 50, check_finite: true })
+    CpuSolver::new(SolverConfig {
+        integrator,
+        cg_tolerance: 1e-14,
+        cg_max_iterations: 50,
+        check_finite: true,
+        substep_safety: None,
+    })
 }
 
 #[test]

@@ -149,7 +149,7 @@ impl From<GpuError> for fissure_core::StepError {
             GpuError::BadTimeStep(dt) => fissure_core::StepError::BadTimeStep(dt),
             GpuError::StateMismatch { state, model } => fissure_core::StepError::StateMismatch { state, model },
             GpuError::NonFinite { to, dt, .. } => {
-                fissure_core::StepError::NonFinite { time: to, dt, particle: 0, what: "velocity" }
+                fissure_core::StepError::NonFinite { time: to, dt, particle: 0, what: "velocity", stable_dt: f64::NAN }
             }
             e => fissure_core::StepError::Backend(e.to_string()),
         }

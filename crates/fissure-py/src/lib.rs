@@ -868,7 +868,13 @@ fn config(integrator: Integrator, cg_tolerance: f64, cg_max_iterations: usize) -
     if !(cg_tolerance.is_finite() && cg_tolerance > 0.0) || cg_max_iterations == 0 {
         return Err(PyValueError::new_err("cg_tolerance must be > 0 and cg_max_iterations >= 1"));
     }
-    Ok(SolverConfig { integrator: integrator.into(), cg_tolerance, cg_max_iterations, check_finite: true })
+    Ok(SolverConfig {
+        integrator: integrator.into(),
+        cg_tolerance,
+        cg_max_iterations,
+        check_finite: true,
+        substep_safety: None,
+    })
 }
 
 fn timers_dict<'py>(py: Python<'py>, t: &fissure::StageTimers) -> PyResult<Bound<'py, PyDict>> {

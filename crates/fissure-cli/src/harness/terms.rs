@@ -1,0 +1,170 @@
+//! Cost per term: the same body with and without each force term, per stage. A scene pays only for what it uses:
+//! the rows without a term show no time (and no calls) in that term's stage.
+
+use super::{Report, sig3};
+use fissure::glam::{DVec3, Vec3};
+use fissure::*;
+use std::fmt::Write as _;
+use std::time::Instant;
+
+#[derive(Clone, Copy, PartialEq)]
+enum Term {
+    Plain,
+    Pressure,
+    Wind,
+    Colliders,
+    Fracture,
+}
+
+impl Term {
+    fn name(self) -> &'static str {
+        match self {
+            Term::Plain => "springs + gravity only",
+            Term::Pressure => "+ pressure",
+            Term::Wind => "+ wind",
+            Term::Colliders => "+ colliders (ground and a ball, touching)",
+            Term::Fracture => "+ fracture (breakable, nothing breaks)",
+        }
+    }
+}
+
+fn build(body: &str, term: Term, quick: bool) -> Result<ModelBuilder, ModelError> {
+    let mut b = ModelBuilder::new();
+    let breakable = (term == Term::Fracture).then(|| Breakable { strain_limit: 10.0, ..Default::default() });
+    if body == "cloth" {
+        let n = if quick { 32 } else { 128 };
+        let opts = ClothOptions {
+            aero: Aero::default(),
+            pins: vec![0, n - 1],
+            fracture: breakable,
+            damping: Damping::PerSpring(0.1),
+            mass: Mass::PerParticle(1e-3),
+            ..Default::default()
+        };
+        b.add_cloth_grid(n, n, 0.01, |p| DVec3::new(p.x, 1.0, p.y), &opts)?;
+    } else {
+        let opts = SoftBodyOptions {
+            mass: Mass::Total(0.4),
+            stiffness: Stiffness::Membrane(2500.0),
+            gas: if term == Term::Pressure { Gas::Pressure(2500.0) } else { Gas::None },
+            fracture: breakable,
+            aero: Aero::default(),
+            ..Default::default()
+        };
+        b.add_soft_body(
+            &Mesh::icosphere(0.25, if quick { 3 } else { 5 }).translated(DVec3::new(0.0, 0.26, 0.0)),
+            &opts,
+        )?;
+    }
+    match term {
+        Term::Wind => {
+            b.wind(WindField { velocity: DVec3::new(0.0, 0.0, 4.0), ..Default::default() });
+        }
+        Term::Colliders => {
+            b.add_collider(Collider::ground(if body == "cloth" { 0.9995 } else { 0.0 }));
+            b.add_collider(Collider::ball(Vec3::new(0.3, 0.8, 0.3), 0.2));
+        }
+        _ => {}
+    }
+    Ok(b)
+}
+
+/// Runs the section.
+pub fn run(r: &mut Report) -> Result<(), String> {
+    let steps = if r.quick { 50 } else { 300 };
+    let _ = writeln!(
+        r.md,
+        "\n### Cost per term\n\nThe same body with one term added at a time: symplectic Euler, f32, all threads, \
+         {steps} steps after 10 warm-up steps, µs per step in total and per stage (`StageTimers`; fracture is the \
+         `Fracture::apply` scan). Cloth: {0}² particles at 1 cm, 1 g each, default cloth springs. Ball: icosphere \
+         of {1} vertices, membrane 2500 N/m. CSV: `terms.csv`.\n\n\
+         | body | terms | µs/step | springs | surface | integrate | collide | fracture |\n|---|---|---|---|---|---|---|---|",
+        if r.quick { 32 } else { 128 },
+        if r.quick { 642 } else { 10242 },
+    );
+    let mut rows = Vec::new();
+    for body in ["cloth", "ball"] {
+        for term in [Term::Plain, Term::Pressure, Term::Wind, Term::Colliders, Term::Fracture] {
+            if body == "cloth" && term == Term::Pressure {
+                continue; // an open sheet holds no gas
+            }
+            let mut model: Model<f32> =
+                build(body, term, r.quick).map_err(|e| e.to_string())?.finalize().map_err(|e| e.to_string())?;
+            let mut s = model.state();
+            let mut solver = CpuSolver::<f32>::default();
+            let mut fracture = Fracture::<f32>::new(FractureConfig::default());
+            let dt = 5e-5;
+            let advance = |model: &mut Model<f32>,
+                           s: &mut State<f32>,
+                           solver: &mut CpuSolver<f32>,
+                           fracture: &mut Fracture<f32>|
+             -> Result<(), String> {
+                solver.step(model, s, dt).map_err(|e| e.to_string())?;
+                if fracture.needed(model) {
+                    let events = fracture.apply(model, s, dt);
+                    if !events.is_empty() {
+                        solver.notify_model_changed(model);
+                    }
+                }
+                Ok(())
+            };
+            for _ in 0..10 {
+                advance(&mut model, &mut s, &mut solver, &mut fracture)?;
+            }
+            solver.reset_timers();
+            fracture.reset_timers();
+            let t = Instant::now();
+            for _ in 0..steps {
+                advance(&mut model, &mut s, &mut solver, &mut fracture)?;
+            }
+            let total = t.elapsed().as_secs_f64() / steps as f64 * 1e6;
+            let tm = solver.timers();
+            let per = |st: Stage| tm.time(st).as_secs_f64() / steps as f64 * 1e6;
+            let frac = fracture.timers().time(Stage::Fracture).as_secs_f64() / steps as f64 * 1e6;
+            let _ = writeln!(
+                r.md,
+                "| {body} | {} | {} | {} | {} | {} | {} | {} |",
+                term.name(),
+                sig3(total),
+                sig3(per(Stage::Springs)),
+                sig3(per(Stage::Surface)),
+                sig3(per(Stage::Integrate)),
+                sig3(per(Stage::Collide)),
+                sig3(frac)
+            );
+            rows.push(format!(
+                "{body},{},{total:e},{:e},{:e},{:e},{:e},{frac:e}",
+                term.name(),
+                per(Stage::Springs),
+                per(Stage::Surface),
+                per(Stage::Integrate),
+                per(Stage::Collide)
+            ));
+            let fracture_calls = fracture.timers().calls(Stage::Fracture);
+            if term != Term::Pressure && term != Term::Wind {
+                r.check(
+                    format!("{body} {}: no surface pass", term.name()),
+                    tm.calls(Stage::Surface) == 0,
+                    format!("{} surface calls", tm.calls(Stage::Surface)),
+                );
+            }
+            if term != Term::Colliders {
+                r.check(
+                    format!("{body} {}: no collision pass", term.name()),
+                    tm.calls(Stage::Collide) == 0,
+                    format!("{} collide calls", tm.calls(Stage::Collide)),
+                );
+            }
+            if term != Term::Fracture {
+                r.check(
+                    format!("{body} {}: no fracture work", term.name()),
+                    fracture_calls == 0,
+                    format!("{fracture_calls} fracture calls"),
+                );
+            }
+        }
+    }
+    r.csv("terms.csv", "body,terms,us_per_step,springs_us,surface_us,integrate_us,collide_us,fracture_us", &rows)
+        .map_err(|e| e.to_string())?;
+    Ok(())
+}
