@@ -795,9 +795,13 @@ impl<R: Real> Fracture<R> {
             self.boundary.resize(m.body_count(), BTreeSet::new());
         }
         let mut dirty = BTreeSet::new();
+        // A body whose gas has all leaked out keeps its openings, and they must follow its later splits too
+        // (the stress test's fracture storms found stale loops otherwise).
+        let with_openings: BTreeSet<u32> = m.openings.iter().map(|o| o.body).collect();
         for &v in &self.touched_list {
             let b = m.particle_body[v as usize];
-            if (b as usize) < m.body_count() && m.body_gas_amount[b as usize] > R::ZERO {
+            if (b as usize) < m.body_count() && (m.body_gas_amount[b as usize] > R::ZERO || with_openings.contains(&b))
+            {
                 self.boundary[b as usize].insert(v);
                 dirty.insert(b);
             }

@@ -249,7 +249,9 @@ impl<R: Real> CpuSolver<R> {
         surface
     }
 
-    fn collide(&mut self, m: &Model<R>, state: &mut State<R>) {
+    /// Resolves contacts; flags `blown` if a contact produced a non-finite state (a particle flung to ±1e300 by
+    /// an unstable step, whose distance to a collider overflows).
+    fn collide(&mut self, m: &Model<R>, state: &mut State<R>, blown: &AtomicBool) {
         if !m.has_colliders() {
             return;
         }
@@ -283,6 +285,9 @@ impl<R: Real> CpuSolver<R> {
                 if touched {
                     qs[k] = R::V::from_vec3(x);
                     vs[k] = R::V::from_vec3(v);
+                    if !(qs[k].is_finite() && vs[k].is_finite()) {
+                        blown.store(true, Ordering::Relaxed);
+                    }
                 }
             }
         });
@@ -306,7 +311,7 @@ impl<R: Real> CpuSolver<R> {
                 }
                 vs[k] += particle_force(m, f, surface, i) * (w * dt);
                 qs[k] += vs[k] * dt;
-                bad |= !vs[k].is_finite();
+                bad |= !(vs[k].is_finite() && qs[k].is_finite());
             }
             if bad {
                 blown.store(true, Ordering::Relaxed);
@@ -358,7 +363,7 @@ impl<R: Real> CpuSolver<R> {
                 let v = qd[i] + force * (w * dt);
                 vs[k] = v;
                 qs[k] = q[i] + v * dt;
-                bad |= !v.is_finite();
+                bad |= !(v.is_finite() && qs[k].is_finite());
             }
             if bad {
                 blown.store(true, Ordering::Relaxed);
@@ -378,6 +383,7 @@ impl<R: Real> CpuSolver<R> {
         let f = &self.f;
         let mut v_pred = std::mem::take(&mut self.v_pred);
         par::chunks3(&mut s.particle_q, &mut s.particle_qd, &mut v_pred, |start, qs, vs, ps| {
+            let mut bad = false;
             for k in 0..qs.len() {
                 let i = start + k;
                 let w = m.particle_inv_mass[i];
@@ -386,9 +392,13 @@ impl<R: Real> CpuSolver<R> {
                     ps[k] = vs[k] + a * dt;
                     vs[k] += a * half;
                     qs[k] += vs[k] * dt;
+                    bad |= !qs[k].is_finite();
                 } else {
                     ps[k] = vs[k];
                 }
+            }
+            if bad {
+                blown.store(true, Ordering::Relaxed);
             }
         });
         self.timers.add(Stage::Integrate, t);
@@ -465,7 +475,7 @@ impl<R: Real> CpuSolver<R> {
                             let (kx, kv) = slope(i, vt[i]);
                             xs[k] += (axs[k] + kx * ws) * dt;
                             vs[k] += (avs[k] + kv * ws) * dt;
-                            bad |= !vs[k].is_finite();
+                            bad |= !(vs[k].is_finite() && xs[k].is_finite());
                         }
                         if bad {
                             blown.store(true, Ordering::Relaxed);
@@ -621,7 +631,7 @@ impl<R: Real> CpuSolver<R> {
                 }
                 vs[k] += dv[i];
                 qs[k] += vs[k] * h;
-                bad |= !vs[k].is_finite();
+                bad |= !(vs[k].is_finite() && qs[k].is_finite());
             }
             if bad {
                 blown.store(true, Ordering::Relaxed);
@@ -768,7 +778,8 @@ impl<R: Real> CpuSolver<R> {
             let limit = safety * self.stability_bound(m).max_dt(self.config.integrator);
             if dt > limit {
                 // Cap the count so a zero-mass or absurd bound cannot hang the caller.
-                substeps = ((dt / limit).ceil() as usize).clamp(1, 1 << 20);
+                // (1 - 1e-12): a ratio that is an integer up to round-off takes that many substeps, not one more.
+                substeps = ((dt / limit * (1.0 - 1e-12)).ceil() as usize).clamp(1, 1 << 20);
             }
         }
         self.last_substeps = substeps;
@@ -790,7 +801,7 @@ impl<R: Real> CpuSolver<R> {
             Integrator::ImplicitEuler => self.implicit_euler(m, s, h, &blown)?,
         }
         s.time += dt;
-        self.collide(m, s);
+        self.collide(m, s, &blown);
         self.timers.steps += 1;
         self.timers.total += t0.elapsed();
         if self.config.check_finite && blown.load(Ordering::Relaxed) {

@@ -259,6 +259,21 @@ pub fn run(r: &mut Report, gpu: Option<&GpuHandle>) -> Result<(), String> {
                 plot.series.push(s);
             }
         }
+        // The GPU (f32) must be as accurate as the CPU in f32: its error within 2× the CPU's plus 1e-5 of the
+        // displacement (f32 round-off differs between the two; the truncation error must not).
+        for g in pts.iter().filter(|p| p.backend == "gpu-f32") {
+            if let Some(c) =
+                pts.iter().find(|c| c.backend == "cpu-f32" && c.integrator == g.integrator && c.steps == g.steps)
+            {
+                if c.err.is_finite() {
+                    r.check(
+                        format!("{}: GPU {} at {} steps as accurate as CPU f32", sc.name, g.integrator.name(), g.steps),
+                        g.err <= 2.0 * c.err + 1e-5 * disp,
+                        format!("GPU {} m, CPU f32 {} m", sig3(g.err), sig3(c.err)),
+                    );
+                }
+            }
+        }
         let all: Vec<(f64, f64)> = pts.iter().map(|p| (p.wall, p.err)).collect();
         plot.series.push(Series::dashed("Pareto front", pareto_front(&all), [0, 0, 0]));
         r.plot(&format!("precision-{}.png", sc.name), &plot).map_err(|e| e.to_string())?;
