@@ -254,7 +254,9 @@ pub fn run(r: &mut Report, gpu: Option<&GpuHandle>) -> Result<(), String> {
                 }
                 let pts_xy: Vec<(f64, f64)> = mine.iter().map(|p| (p.wall, p.err)).collect();
                 let name = format!("{} {backend}", integrator.name());
-                let mut s = Series::new(name, pts_xy, PALETTE[k]);
+                // One colour per integrator; the GPU's in a second set of colours so it stands apart from CPU f32.
+                let colour = if backend == "gpu-f32" { PALETTE[(k + 4) % PALETTE.len()] } else { PALETTE[k] };
+                let mut s = Series::new(name, pts_xy, colour);
                 s.dashed = backend != "cpu-f64";
                 plot.series.push(s);
             }
