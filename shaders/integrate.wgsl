@@ -85,7 +85,13 @@ fn flag_blown(x: vec3<f32>, v: vec3<f32>) {
     }
 }
 
-// `v += h a(x, v); x += dt v`, from the source state into the destination; pinned particles are copied.
+// The first (or only) half of a step, from the source state into the destination; pinned particles are copied.
+// Drift with the velocity kicked by `h` (`x += dt (v + h a)`), store the velocity kicked by the whole step
+// (`v + dt a`). Symplectic Euler is `h = dt` (the two agree: the seed's eqs. 3-5). Velocity Verlet is `h = dt/2`:
+// the stored velocity is then not the half-step one but its extrapolation to the step's end, where the second kick
+// evaluates the velocity-dependent forces (damping, drag), which keeps the scheme second order with damping (at
+// v_{n+1/2} it would be first order); it recovers v_{n+1/2} as the mean of it and v_n, which the other state buffer
+// still holds.
 fn kick_drift(i: u32, h: f32) {
     let w = particles[i].inv_mass;
     if (w == 0.0) {
@@ -93,8 +99,9 @@ fn kick_drift(i: u32, h: f32) {
         qd_dst[i] = qd_src[i];
         return;
     }
-    let v = qd_src[i].xyz + particle_force(i) * (w * h);
-    let x = q_src[i].xyz + v * clock.dt;
+    let a = particle_force(i) * w;
+    let v = qd_src[i].xyz + a * clock.dt;
+    let x = q_src[i].xyz + (qd_src[i].xyz + a * h) * clock.dt;
     qd_dst[i] = vec4<f32>(v, 0.0);
     q_dst[i] = vec4<f32>(x, 0.0);
     flag_blown(x, v);
@@ -108,26 +115,13 @@ fn integrate_symplectic_euler(@builtin(global_invocation_id) gid: vec3<u32>, @bu
     kick_drift(i, clock.dt);
 }
 
-// Velocity Verlet, first half: kick half a step, drift a whole step. The velocity stored is not the half-step
-// one but its extrapolation to the step's end, v_n + dt a_n: the second kick evaluates the velocity-dependent
-// forces (damping, drag) there, which keeps the scheme second order with damping (at v_{n+1/2} it would be first
-// order), and recovers v_{n+1/2} as the mean of it and v_n, which the other state buffer still holds.
+// Velocity Verlet, first half: kick half a step, drift a whole step, store the extrapolated velocity (see
+// `kick_drift`).
 @compute @workgroup_size(64)
 fn integrate_verlet_first(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>) {
     let i = flat_index(gid, nwg);
     if (i >= particle_count()) { return; }
-    let w = particles[i].inv_mass;
-    if (w == 0.0) {
-        q_dst[i] = q_src[i];
-        qd_dst[i] = qd_src[i];
-        return;
-    }
-    let a = particle_force(i) * w;
-    let x = q_src[i].xyz + (qd_src[i].xyz + a * (0.5 * clock.dt)) * clock.dt;
-    let vp = qd_src[i].xyz + a * clock.dt;
-    qd_dst[i] = vec4<f32>(vp, 0.0);
-    q_dst[i] = vec4<f32>(x, 0.0);
-    flag_blown(x, vp);
+    kick_drift(i, 0.5 * clock.dt);
 }
 
 // Velocity Verlet, second half: kick v_{n+1/2} = (v_pred + v_n) / 2 with the forces at the new positions and the

@@ -874,7 +874,14 @@ impl Solver<f32> for GpuSolver {
     /// [`GpuSolver::run`], which keeps the state on the GPU.
     fn step(&mut self, model: &Model<f32>, state: &mut State<f32>, dt: f64) -> Result<(), StepError> {
         self.upload_state(state)?;
-        self.run(model, dt, 1)?;
+        match self.run(model, dt, 1) {
+            Err(GpuError::NonFinite { to, dt, .. }) => {
+                // The CPU's error, with the mesh's bound, so the message names the cause on either backend.
+                let stable_dt = fissure_core::StabilityBound::of(model).max_dt(self.config.integrator);
+                return Err(StepError::NonFinite { time: to, dt, particle: 0, what: "velocity", stable_dt });
+            }
+            r => r?,
+        };
         self.read_state(state)?;
         Ok(())
     }

@@ -36,11 +36,7 @@ fn config(integrator: Integrator, f64_: bool) -> SolverConfig {
 
 /// Runs `steps` CPU steps of the scene in precision `R`; the final positions, or the error.
 fn cpu_run<R: Real>(sc: &Scene, integrator: Integrator, steps: usize) -> (Result<Vec<DVec3>, StepError>, f64) {
-    let model: Model<R> = sc.builder.finalize().expect("harness scenes are valid");
-    let mut s0 = model.state();
-    if sc.name == "oscillator" {
-        scenes::displace_oscillator(&mut s0);
-    }
+    let (model, s0) = sc.initial::<R>().expect("harness scenes are valid");
     let dt = sc.t_end / steps as f64;
     let mut solver = CpuSolver::<R>::new(config(integrator, R::EPSILON.to_f64() < 1e-10));
     let mut out = Err(StepError::BadTimeStep(dt));
@@ -59,11 +55,7 @@ fn cpu_run<R: Real>(sc: &Scene, integrator: Integrator, steps: usize) -> (Result
 }
 
 fn gpu_run(sc: &Scene, g: &GpuHandle, integrator: Integrator, steps: usize) -> (Result<Vec<DVec3>, String>, f64) {
-    let model: Model<f32> = sc.builder.finalize().expect("harness scenes are valid");
-    let mut s0 = model.state();
-    if sc.name == "oscillator" {
-        scenes::displace_oscillator(&mut s0);
-    }
+    let (model, s0) = sc.initial::<f32>().expect("harness scenes are valid");
     let dt = sc.t_end / steps as f64;
     let cfg = gpu::GpuConfig { integrator, ..Default::default() };
     let mut solver = match gpu::GpuSolver::new(g.ctx.device.clone(), g.ctx.queue.clone(), &model, cfg) {
@@ -90,11 +82,7 @@ fn gpu_run(sc: &Scene, g: &GpuHandle, integrator: Integrator, steps: usize) -> (
 
 /// The f64 RK4 reference: final positions, the step count used and the relative change on the last halving.
 fn reference(sc: &Scene) -> Result<(Vec<DVec3>, usize, f64), String> {
-    let model: Model<f64> = sc.builder.finalize().map_err(|e| e.to_string())?;
-    let mut s0 = model.state();
-    if sc.name == "oscillator" {
-        scenes::displace_oscillator(&mut s0);
-    }
+    let (model, s0) = sc.initial::<f64>()?;
     let x0 = positions(&s0);
     let run = |n: usize| -> Result<Vec<DVec3>, String> {
         let mut solver = CpuSolver::<f64>::with_integrator(Integrator::Rk4);
@@ -170,11 +158,7 @@ pub fn run(r: &mut Report, gpu: Option<&GpuHandle>) -> Result<(), String> {
     for sc in &list {
         eprintln!("-- {}", sc.name);
         let (reference, n_ref, change) = reference(sc)?;
-        let model: Model<f64> = sc.builder.finalize().map_err(|e| e.to_string())?;
-        let mut s0 = model.state();
-        if sc.name == "oscillator" {
-            scenes::displace_oscillator(&mut s0);
-        }
+        let (_, s0) = sc.initial::<f64>()?;
         let disp = rms_diff(&reference, &positions(&s0));
         let _ = writeln!(r.md, "#### {} — {}\n", sc.name, sc.about);
         r.check(

@@ -14,6 +14,9 @@ pub struct Scene {
     pub builder: ModelBuilder,
     /// Simulated time [s].
     pub t_end: f64,
+    /// A displacement [m] of one particle applied to the initial state (springs take their rest length from the
+    /// builder's positions, so a stretched start is set on the state).
+    pub displace: Option<(usize, DVec3)>,
     /// Steps to cover `t_end` in the work–precision sweep, coarse to fine.
     pub steps: Vec<usize>,
 }
@@ -33,16 +36,21 @@ pub fn oscillator(quick: bool) -> Scene {
         about: "1 kg on 100 N/m (ω = 10 rad/s), released 0.1 m from rest, 2 s".into(),
         builder: b,
         t_end: 2.0,
+        displace: Some((mass, DVec3::new(0.1, 0.0, 0.0))),
         steps,
     }
 }
 
-/// The initial displacement of [`oscillator`]: applied to the state, since springs take their rest length from
-/// the builder's positions.
-pub fn displace_oscillator<R: Real>(s: &mut State<R>) {
-    let mut q = s.particle_q[1].to_dvec3();
-    q.x += 0.1;
-    s.particle_q[1] = R::V::from_dvec3(q);
+impl Scene {
+    /// The model in precision `R` and its initial state.
+    pub fn initial<R: Real>(&self) -> Result<(Model<R>, State<R>), String> {
+        let model: Model<R> = self.builder.finalize().map_err(|e| e.to_string())?;
+        let mut s = model.state();
+        if let Some((i, d)) = self.displace {
+            s.particle_q[i] = R::V::from_dvec3(s.particle_q[i].to_dvec3() + d);
+        }
+        Ok((model, s))
+    }
 }
 
 /// Warp's cloth benchmark layout: `n × n` particles at 0.1 m spacing, 0.1 kg each, structural, shear and bending
@@ -71,6 +79,7 @@ pub fn warp_cloth(n: usize, quick: bool) -> Scene {
         ),
         builder: b,
         t_end: frames as f64 / 60.0,
+        displace: None,
         steps: subs.iter().map(|s| s * frames).collect(),
     }
 }
@@ -96,6 +105,7 @@ pub fn ball(quick: bool) -> Scene {
             .into(),
         builder: b,
         t_end: 0.1,
+        displace: None,
         steps,
     }
 }
