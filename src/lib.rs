@@ -25,8 +25,12 @@
 
 pub use fissure_core::*;
 
+#[cfg(feature = "render")]
+pub mod output;
 pub mod scene;
 pub mod scenes;
+#[cfg(feature = "viewer")]
+pub mod viewer;
 
 /// The wgpu compute backend (feature `gpu`): [`gpu::GpuSolver`], [`gpu::GpuContext`].
 #[cfg(feature = "gpu")]

@@ -14,7 +14,7 @@
 //! max_events_per_step = 8
 //!
 //! [[body]]
-//! shape = "icosphere"               # icosphere | cuboid | obj
+//! shape = "icosphere"               # icosphere | cuboid | obj | cloth
 //! radius = 0.25                     # [m]
 //! subdivisions = 3
 //! position = [0.0, 1.5, 0.0]        # [m]
@@ -24,6 +24,26 @@
 //! pressure = 3000.0                 # [Pa]; 0: no gas
 //! strain_limit = 0.3                # optional: spring mode
 //! load_limit = 4.0                  # optional: core mode [N]
+//!
+//! [[body]]                          # an open sheet: no gas
+//! shape = "cloth"
+//! resolution = [32, 32]             # particles across and down
+//! width = 1.0                       # [m]; the particles are width / (across - 1) apart
+//! orientation = "vertical"          # vertical (in the xy plane, facing +z) | horizontal (in the xz plane)
+//! position = [0.0, 1.6, 0.0]        # [m] the middle of the top edge (vertical) or of the sheet (horizontal)
+//! pin = "top_corners"               # top_corners | top_edge | none
+//! mass = 0.3                        # [kg]
+//! stiffness = 400.0                 # structural springs, membrane E·h [N/m]
+//! shear = 100.0                     # optional: shear springs [N/m]
+//! bending = 20.0                    # optional: bending springs [N/m]
+//!
+//! [wind]
+//! velocity = [0.0, 0.0, 4.0]        # [m/s] mean wind
+//! gust_amplitude = 0.5              # optional: fraction of the mean speed (default 0.5)
+//! gust_frequency = 0.5              # optional [Hz] (default 0.5)
+//! gust_wavelength = 4.0             # optional [m] (default 4)
+//! crosswind = 0.2                   # optional: fraction of the mean speed (default 0.2)
+//! air_density = 1.225               # optional [kg/m^3]
 //!
 //! [[collider]]
 //! shape = "ball"                    # ground | plane | ball | cuboid | capsule
@@ -145,8 +165,23 @@ pub struct FractureSection {
 #[derive(Clone, Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct BodySection {
-    /// `icosphere`, `cuboid` or `obj`.
+    /// `icosphere`, `cuboid`, `obj` or `cloth`.
     pub shape: String,
+    /// Cloth: particles across and down.
+    #[serde(default)]
+    pub resolution: Option<[usize; 2]>,
+    /// Cloth width [m]. Default 1.
+    #[serde(default)]
+    pub width: Option<f64>,
+    /// Cloth: `vertical` (default) or `horizontal`.
+    #[serde(default)]
+    pub orientation: Option<String>,
+    /// Cloth: `top_corners` (default), `top_edge` or `none`.
+    #[serde(default)]
+    pub pin: Option<String>,
+    /// Cloth shear springs, membrane stiffness [N/m]; none: no shear springs.
+    #[serde(default)]
+    pub shear: Option<f64>,
     /// Icosphere radius [m].
     #[serde(default)]
     pub radius: Option<f64>,
@@ -180,9 +215,9 @@ pub struct BodySection {
     /// Bending membrane stiffness [N/m]; none: no bending springs.
     #[serde(default)]
     pub bending: Option<f64>,
-    /// Gas pressure at rest [Pa]; 0: no gas. Default 2000.
-    #[serde(default = "default_pressure")]
-    pub pressure: f64,
+    /// Gas pressure at rest [Pa]; 0: no gas. Default 2000 for closed bodies; a cloth has none.
+    #[serde(default)]
+    pub pressure: Option<f64>,
     /// Strain limit of the springs (spring mode).
     #[serde(default)]
     pub strain_limit: Option<f64>,
@@ -202,9 +237,6 @@ fn default_stiffness() -> f64 {
 }
 fn default_damping() -> f64 {
     0.05
-}
-fn default_pressure() -> f64 {
-    2000.0
 }
 fn default_restitution() -> f32 {
     0.3
@@ -251,12 +283,27 @@ pub struct ColliderSection {
     pub friction: f32,
 }
 
-/// `[wind]`.
+/// `[wind]`: see [`WindField`] for the model.
 #[derive(Clone, Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct WindSection {
     /// Mean wind velocity [m/s].
     pub velocity: [f64; 3],
+    /// Gust amplitude as a fraction of the mean speed. Default 0.5.
+    #[serde(default)]
+    pub gust_amplitude: Option<f64>,
+    /// Gust frequency [Hz]. Default 0.5.
+    #[serde(default)]
+    pub gust_frequency: Option<f64>,
+    /// Gust wavelength [m]. Default 4.
+    #[serde(default)]
+    pub gust_wavelength: Option<f64>,
+    /// Crosswind wobble as a fraction of the mean speed. Default 0.2.
+    #[serde(default)]
+    pub crosswind: Option<f64>,
+    /// Air density [kg/m^3]. Default 1.225.
+    #[serde(default)]
+    pub air_density: Option<f64>,
 }
 
 fn v3(a: [f64; 3]) -> DVec3 {
@@ -340,6 +387,19 @@ impl Scene {
         b.gravity(v3(self.solver.gravity));
         for (k, body) in self.bodies.iter().enumerate() {
             let key = |f: &str| format!("body[{k}].{f}");
+            if body.shape == "cloth" {
+                self.add_cloth(&mut b, k, body)?;
+                continue;
+            }
+            for (f, v) in [("resolution", body.resolution.is_some()), ("width", body.width.is_some())]
+                .into_iter()
+                .chain([("orientation", body.orientation.is_some()), ("pin", body.pin.is_some())])
+                .chain([("shear", body.shear.is_some())])
+            {
+                if v {
+                    return Err(self.bad(key(f), format!("applies to a cloth only, not a {}", body.shape)));
+                }
+            }
             let mesh = match body.shape.as_str() {
                 "icosphere" => {
                     let r = body.radius.ok_or_else(|| self.bad(key("radius"), "is required for an icosphere"))?;
@@ -363,9 +423,8 @@ impl Scene {
                     Mesh::load_obj(&p, Some(1e-6)).map_err(|e| model_err(Box::new(e)))?
                 }
                 other => {
-                    return Err(
-                        self.bad(key("shape"), format!("unknown shape {other:?}; one of icosphere, cuboid, obj"))
-                    );
+                    return Err(self
+                        .bad(key("shape"), format!("unknown shape {other:?}; one of icosphere, cuboid, obj, cloth")));
                 }
             };
             let fracture =
@@ -379,7 +438,10 @@ impl Scene {
                 stiffness: Stiffness::Membrane(body.stiffness),
                 damping: Damping::Ratio(body.damping_ratio),
                 bending: body.bending.map(Stiffness::Membrane),
-                gas: if body.pressure > 0.0 { Gas::Pressure(body.pressure) } else { Gas::None },
+                gas: match body.pressure.unwrap_or(2000.0) {
+                    p if p > 0.0 => Gas::Pressure(p),
+                    _ => Gas::None,
+                },
                 velocity: v3(body.velocity),
                 fracture,
                 ..Default::default()
@@ -426,9 +488,102 @@ impl Scene {
             b.add_collider(col.with_restitution(c.restitution).with_friction(c.friction));
         }
         if let Some(w) = &self.wind {
-            b.wind(WindField { velocity: v3(w.velocity), ..Default::default() });
+            let d = WindField::default();
+            let wind = WindField {
+                velocity: v3(w.velocity),
+                gust_amplitude: w.gust_amplitude.unwrap_or(d.gust_amplitude),
+                gust_frequency: w.gust_frequency.unwrap_or(d.gust_frequency),
+                gust_wavelength: w.gust_wavelength.unwrap_or(d.gust_wavelength),
+                crosswind: w.crosswind.unwrap_or(d.crosswind),
+                air_density: w.air_density.unwrap_or(d.air_density),
+            };
+            for (f, v) in [
+                ("gust_amplitude", wind.gust_amplitude),
+                ("gust_frequency", wind.gust_frequency),
+                ("crosswind", wind.crosswind),
+                ("air_density", wind.air_density),
+            ] {
+                if !(v.is_finite() && v >= 0.0) {
+                    return Err(self.bad(format!("wind.{f}"), format!("must be >= 0, got {v}")));
+                }
+            }
+            if !(wind.gust_wavelength.is_finite() && wind.gust_wavelength > 0.0) {
+                return Err(self.bad("wind.gust_wavelength", format!("must be > 0, got {}", wind.gust_wavelength)));
+            }
+            if !wind.velocity.is_finite() {
+                return Err(self.bad("wind.velocity", "must be finite"));
+            }
+            b.wind(wind);
         }
         Ok(b)
+    }
+
+    fn add_cloth(&self, b: &mut ModelBuilder, k: usize, body: &BodySection) -> Result<(), SceneError> {
+        let key = |f: &str| format!("body[{k}].{f}");
+        let [nx, ny] = body.resolution.ok_or_else(|| self.bad(key("resolution"), "is required for a cloth"))?;
+        if nx < 2 || ny < 2 || nx * ny > 4 << 20 {
+            return Err(self.bad(key("resolution"), format!("needs 2..=2048 each way, got [{nx}, {ny}]")));
+        }
+        let width = body.width.unwrap_or(1.0);
+        if !(width.is_finite() && width > 0.0) {
+            return Err(self.bad(key("width"), format!("must be > 0, got {width}")));
+        }
+        if body.pressure.is_some_and(|p| p != 0.0) {
+            return Err(self.bad(key("pressure"), "an open cloth holds no gas; remove the key"));
+        }
+        for (f, set) in [("radius", body.radius.is_some()), ("file", body.file.is_some())] {
+            if set {
+                return Err(self.bad(key(f), "does not apply to a cloth"));
+            }
+        }
+        let spacing = width / (nx - 1) as f64;
+        let o = v3(body.position);
+        let vertical = match body.orientation.as_deref().unwrap_or("vertical") {
+            "vertical" => true,
+            "horizontal" => false,
+            other => {
+                return Err(self.bad(key("orientation"), format!("unknown {other:?}; one of vertical, horizontal")));
+            }
+        };
+        let height = spacing * (ny - 1) as f64;
+        let place = move |q: DVec3| {
+            if vertical {
+                o + DVec3::new(q.x - 0.5 * width, q.y, 0.0)
+            } else {
+                o + DVec3::new(q.x - 0.5 * width, 0.0, -q.y - 0.5 * height)
+            }
+        };
+        let pins = match body.pin.as_deref().unwrap_or("top_corners") {
+            "top_corners" => vec![0, nx - 1],
+            "top_edge" => (0..nx).collect(),
+            "none" => Vec::new(),
+            other => {
+                return Err(self.bad(key("pin"), format!("unknown {other:?}; one of top_corners, top_edge, none")));
+            }
+        };
+        let opts = ClothOptions {
+            mass: Mass::Total(body.mass),
+            stiffness: Stiffness::Membrane(body.stiffness),
+            shear: body.shear.map(Stiffness::Membrane),
+            bending: body.bending.map(Stiffness::Membrane),
+            damping: Damping::Ratio(body.damping_ratio),
+            pins,
+            aero: Aero::default(),
+            fracture: (body.strain_limit.is_some() || body.load_limit.is_some()).then(|| Breakable {
+                strain_limit: body.strain_limit.unwrap_or(f64::INFINITY),
+                load_limit: body.load_limit.unwrap_or(f64::INFINITY),
+                sealed: false,
+            }),
+        };
+        if body.velocity != [0.0; 3] {
+            return Err(self.bad(key("velocity"), "a cloth starts at rest; remove the key"));
+        }
+        b.add_cloth_grid(nx, ny, spacing, place, &opts).map_err(|e| SceneError::Value {
+            path: self.path.clone(),
+            key: format!("body[{k}]"),
+            message: e.to_string(),
+        })?;
+        Ok(())
     }
 
     /// Builds the world: model, state, solver and fracture pass.

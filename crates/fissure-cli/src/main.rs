@@ -1,8 +1,14 @@
 //! `fissure`: the command-line program.
 //!
 //! ```text
+//! fissure run SCENE [--frames N] [--fps F] [--out DIR] [--backend cpu|gpu] [--size WxH] [--mesh obj|ply]
+//! fissure view SCENE [--size WxH] [--paused] [--frames N --screenshot FILE]
 //! fissure bench [--quick] [--out DIR] [--results FILE] [--only SECTION[,SECTION…]] [--no-gpu]
 //! ```
+//!
+//! `run` simulates a scene file headless and writes PNG frames, an animated GIF and optionally OBJ/PLY meshes,
+//! with a progress bar and a summary table; without any GPU adapter it still simulates and says why it drew
+//! nothing. `view` opens the interactive viewer (`fissure::viewer`).
 //!
 //! `bench` runs the accuracy, stability and speed harness (see the `harness` module): CSVs, PNG plots and a
 //! Markdown report in `--out` (default `target/fissure-bench`), and with `--results` the report spliced into that
@@ -11,13 +17,18 @@
 
 mod harness;
 mod plot;
+mod run;
 
 use std::path::PathBuf;
 use std::process::ExitCode;
 
 const USAGE: &str = "\
-usage: fissure bench [--quick] [--out DIR] [--results FILE] [--only SECTION[,SECTION...]] [--no-gpu]
+usage: fissure run SCENE [--frames N] [--fps F] [--out DIR] [--backend cpu|gpu] [--size WxH] [--mesh obj|ply]
+       fissure view SCENE [--size WxH] [--paused] [--frames N --screenshot FILE]
+       fissure bench [--quick] [--out DIR] [--results FILE] [--only SECTION[,SECTION...]] [--no-gpu]
 
+  run      simulate a scene file headless: PNG frames, a GIF, a summary (fissure run --help)
+  view     open a window on a scene (fissure view --help)
   bench    the accuracy, stability and speed harness: work-precision, stability bisection,
            large implicit steps, cost per term, speed (sections: precision, stability,
            large-steps, terms, speed)
@@ -34,6 +45,38 @@ fn main() -> ExitCode {
     let args: Vec<String> = std::env::args().skip(1).collect();
     match args.first().map(String::as_str) {
         Some("bench") => bench(&args[1..]),
+        Some("run") => {
+            if args[1..].iter().any(|a| a == "-h" || a == "--help") {
+                println!("{}", run::RUN_USAGE);
+                return ExitCode::SUCCESS;
+            }
+            match run::parse(&args[1..]) {
+                Err(e) => {
+                    eprintln!("fissure run: {e}\n\n{}", run::RUN_USAGE);
+                    ExitCode::from(2)
+                }
+                Ok(cfg) => match run::run(&cfg) {
+                    Ok(_) => ExitCode::SUCCESS,
+                    Err(e) => {
+                        eprintln!("fissure run: {e}");
+                        ExitCode::from(1)
+                    }
+                },
+            }
+        }
+        Some("view") => {
+            if args[1..].iter().any(|a| a == "-h" || a == "--help") {
+                println!("{}", run::VIEW_USAGE);
+                return ExitCode::SUCCESS;
+            }
+            match run::view(&args[1..]) {
+                Ok(()) => ExitCode::SUCCESS,
+                Err(e) => {
+                    eprintln!("fissure view: {e}");
+                    ExitCode::from(1)
+                }
+            }
+        }
         Some("-h" | "--help" | "help") => {
             println!("{USAGE}");
             ExitCode::SUCCESS

@@ -170,6 +170,13 @@ fn scratch_sizes(m: &Model<f32>, p: &Packed) -> [usize; 4] {
     [nt, m.body_count(), np, p.n_caps as usize]
 }
 
+/// Positions and velocities: storage for the kernels, copies both ways, and a vertex buffer for the renderer
+/// ([`crate::render`] draws the position buffer in place).
+const STATE_USAGE: wgpu::BufferUsages = wgpu::BufferUsages::STORAGE
+    .union(wgpu::BufferUsages::COPY_DST)
+    .union(wgpu::BufferUsages::COPY_SRC)
+    .union(wgpu::BufferUsages::VERTEX);
+
 fn scratch(device: &wgpu::Device, m: &Model<f32>, p: &Packed) -> Scratch {
     let sized = scratch_sizes(m, p).map(|n| n + n / 4);
     let rw = wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::COPY_SRC;
@@ -274,8 +281,7 @@ impl GpuSolver {
         let sdf = Mirror::new(&device, &queue, "sdf", &sdf_host, slack);
         let n = model.particle_count();
         let state_capacity = n + if slack { n / 4 } else { 0 };
-        let su = wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::COPY_SRC;
-        let mkq = |l| layout::create(&device, l, state_capacity * 16, su);
+        let mkq = |l| layout::create(&device, l, state_capacity * 16, STATE_USAGE);
         let (q, qd) = ([mkq("q0"), mkq("q1")], [mkq("qd0"), mkq("qd1")]);
         let params = layout::create(
             &device,
@@ -284,6 +290,7 @@ impl GpuSolver {
             wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
         );
         let cap = config.candidate_capacity.max(1);
+        let su = wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::COPY_SRC;
         let candidates = layout::create(&device, "candidates", (4 + 2 * cap as usize) * 4, su);
         let status = layout::create(&device, "status", 16, wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST);
         let clock_capacity = 64;
@@ -788,8 +795,7 @@ impl GpuSolver {
             self.state_stale = true;
             if n > self.state_capacity {
                 self.state_capacity = n + n / 4;
-                let su = wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::COPY_SRC;
-                let mk = |l| layout::create(&self.device, l, self.state_capacity * 16, su);
+                let mk = |l| layout::create(&self.device, l, self.state_capacity * 16, STATE_USAGE);
                 self.q = [mk("q0"), mk("q1")];
                 self.qd = [mk("qd0"), mk("qd1")];
                 realloc = true;

@@ -1,0 +1,665 @@
+//! The interactive viewer (feature `viewer`): a window (winit; X11 on Linux) showing a [`World`] as it runs, drawn
+//! by the wgpu renderer ([`crate::gpu::render`]) and stepped on the CPU, so fracture, puncture and every
+//! integrator work.
+//!
+//! | input | action |
+//! |---|---|
+//! | left drag on a body | pull the mass point under the cursor (a critically damped spring, ω = 40 rad/s) |
+//! | left drag elsewhere | orbit the camera; wheel: zoom |
+//! | right click on a body | puncture it there: the vertex under the cursor breaks out as a core block |
+//! | `space` / `n` | pause and resume / advance one frame while paused |
+//! | `w` / `p` | wind on and off / gas pressure on and off |
+//! | `f` / `v` / `s` | wireframe of springs / mass points / shaded surfaces |
+//! | `r` / `esc`, `q` | restart the scene / quit |
+//!
+//! The overlay shows simulated time, the cost of the last frame per stage (springs, pressure, wind, collisions,
+//! integration, fracture), frames per second and the fracture events so far.
+//!
+//! For tests and CI, [`ViewerOptions::screenshot`] writes the frame shown after [`ViewerOptions::exit_after`]
+//! frames to a PNG and closes the window: read back from the window's own surface texture when the driver
+//! allows (lavapipe on Xvfb does), otherwise drawn again offscreen from the same state and camera.
+
+use crate::gpu::render::{Camera, Image, Offscreen, Positions, Renderer, View, targets};
+use crate::gpu::{GpuError, wgpu};
+use crate::output::{OutputError, save_png};
+use crate::{FractureKind, Solver, Stage, StepError, World};
+use glam::Vec3;
+use std::path::PathBuf;
+use std::sync::{Arc, mpsc};
+use std::time::Instant;
+use winit::application::ApplicationHandler;
+use winit::event::{ElementState, MouseButton, MouseScrollDelta, WindowEvent};
+use winit::event_loop::{ActiveEventLoop, EventLoop};
+use winit::keyboard::{Key, NamedKey};
+use winit::window::{Window, WindowId};
+
+/// Settings of a viewer session.
+#[derive(Clone, Debug)]
+pub struct ViewerOptions {
+    /// Window title.
+    pub title: String,
+    /// Window size [px].
+    pub size: [u32; 2],
+    /// Simulated time per drawn frame [s]. Default 1/60.
+    pub frame_time: f64,
+    /// Close after this many frames (for tests and screenshots).
+    pub exit_after: Option<usize>,
+    /// Write the last frame here before closing.
+    pub screenshot: Option<PathBuf>,
+    /// Start paused.
+    pub paused: bool,
+}
+
+impl Default for ViewerOptions {
+    fn default() -> Self {
+        ViewerOptions {
+            title: "fissure".into(),
+            size: [1280, 720],
+            frame_time: 1.0 / 60.0,
+            exit_after: None,
+            screenshot: None,
+            paused: false,
+        }
+    }
+}
+
+/// What a session did.
+#[derive(Clone, Debug)]
+pub struct ViewerReport {
+    /// Frames drawn.
+    pub frames: usize,
+    /// Simulated time at the end [s].
+    pub time: f64,
+    /// Fracture events (including punctures).
+    pub events: usize,
+    /// The adapter drawn on.
+    pub adapter: String,
+    /// The screenshot written, if asked for; and whether it was read from the window's surface itself.
+    pub screenshot: Option<(PathBuf, bool)>,
+}
+
+/// Why the viewer could not run.
+#[derive(Debug, thiserror::Error)]
+pub enum ViewerError {
+    /// No window system (no `DISPLAY` or `WAYLAND_DISPLAY`, or the connection failed).
+    #[error("cannot open a window: {0}")]
+    NoDisplay(String),
+    /// The GPU side failed.
+    #[error(transparent)]
+    Gpu(#[from] GpuError),
+    /// The window's surface could not be used.
+    #[error("cannot draw into the window: {0}")]
+    Surface(String),
+    /// The simulation failed.
+    #[error(transparent)]
+    Step(#[from] StepError),
+    /// The screenshot could not be written.
+    #[error(transparent)]
+    Output(#[from] OutputError),
+}
+
+/// Whether a window can probably be opened (on Linux: `DISPLAY` or `WAYLAND_DISPLAY` is set; elsewhere: yes).
+/// Examples use it to choose between the window and headless frames.
+pub fn display_available() -> bool {
+    if cfg!(target_os = "linux") || cfg!(target_os = "freebsd") {
+        ["DISPLAY", "WAYLAND_DISPLAY"].iter().any(|v| std::env::var_os(v).is_some_and(|s| !s.is_empty()))
+    } else {
+        true
+    }
+}
+
+/// Opens a window and runs `world` interactively, stepping by at most `dt` [s]; returns when the window closes.
+/// `restart` rebuilds the world for the `r` key.
+pub fn run(
+    world: World<f32>,
+    dt: f64,
+    restart: impl Fn() -> Option<World<f32>> + 'static,
+    options: ViewerOptions,
+) -> Result<ViewerReport, ViewerError> {
+    if !display_available() {
+        return Err(ViewerError::NoDisplay("no DISPLAY or WAYLAND_DISPLAY is set".into()));
+    }
+    let event_loop = EventLoop::new().map_err(|e| ViewerError::NoDisplay(e.to_string()))?;
+    let mut app = App {
+        options,
+        world,
+        dt,
+        restart: Box::new(restart),
+        gfx: None,
+        error: None,
+        camera: Camera::default(),
+        view: View::default(),
+        paused: false,
+        step_once: false,
+        cursor: (0.0, 0.0),
+        drag: None,
+        orbit_from: None,
+        frames: 0,
+        saved_wind: None,
+        saved_gas: None,
+        last_frame: Instant::now(),
+        fps: 0.0,
+        sim_ms: 0.0,
+        draw_ms: 0.0,
+        stage_ms: [0.0; Stage::ALL.len()],
+        screenshot: None,
+    };
+    app.paused = app.options.paused;
+    app.camera = Camera::framing(&app.world.model, &app.world.state);
+    event_loop.run_app(&mut app).map_err(|e| ViewerError::NoDisplay(e.to_string()))?;
+    if let Some(e) = app.error {
+        return Err(e);
+    }
+    Ok(ViewerReport {
+        frames: app.frames,
+        time: app.world.state.time,
+        events: app.world.events.len(),
+        adapter: app.gfx.as_ref().map(|g| g.adapter.clone()).unwrap_or_default(),
+        screenshot: app.screenshot,
+    })
+}
+
+struct Gfx {
+    window: Arc<Window>,
+    surface: wgpu::Surface<'static>,
+    device: wgpu::Device,
+    queue: wgpu::Queue,
+    config: wgpu::SurfaceConfiguration,
+    renderer: Renderer,
+    msaa: wgpu::TextureView,
+    depth: wgpu::TextureView,
+    adapter: String,
+}
+
+/// A grabbed mass point: its index and the plane (through its grab position, facing the camera) it is dragged in.
+struct Drag {
+    particle: usize,
+    plane_point: Vec3,
+    target: Vec3,
+}
+
+struct App {
+    options: ViewerOptions,
+    world: World<f32>,
+    dt: f64,
+    restart: Box<dyn Fn() -> Option<World<f32>>>,
+    gfx: Option<Gfx>,
+    error: Option<ViewerError>,
+    camera: Camera,
+    view: View,
+    paused: bool,
+    step_once: bool,
+    cursor: (f32, f32),
+    drag: Option<Drag>,
+    orbit_from: Option<(f32, f32)>,
+    frames: usize,
+    saved_wind: Option<crate::WindField>,
+    saved_gas: Option<Vec<f32>>,
+    last_frame: Instant,
+    fps: f64,
+    sim_ms: f64,
+    draw_ms: f64,
+    stage_ms: [f64; Stage::ALL.len()],
+    screenshot: Option<(PathBuf, bool)>,
+}
+
+/// Stiffness of the mouse spring as an angular frequency [rad/s]; it acts on acceleration, so it pulls a light
+/// and a heavy particle alike, and is critically damped.
+const DRAG_OMEGA: f32 = 40.0;
+
+impl App {
+    fn fail(&mut self, event_loop: &ActiveEventLoop, e: ViewerError) {
+        self.error.get_or_insert(e);
+        event_loop.exit();
+    }
+
+    fn init(&mut self, event_loop: &ActiveEventLoop) -> Result<(), ViewerError> {
+        let [w, h] = self.options.size;
+        let attrs = Window::default_attributes()
+            .with_title(self.options.title.clone())
+            .with_inner_size(winit::dpi::PhysicalSize::new(w, h));
+        let window = Arc::new(event_loop.create_window(attrs).map_err(|e| ViewerError::NoDisplay(e.to_string()))?);
+        let mut desc = wgpu::InstanceDescriptor::new_without_display_handle_from_env();
+        if std::env::var_os("WGPU_BACKEND").is_none() {
+            desc.backends = wgpu::Backends::PRIMARY;
+        }
+        let instance = wgpu::Instance::new(desc);
+        let surface = instance.create_surface(window.clone()).map_err(|e| ViewerError::Surface(e.to_string()))?;
+        let adapter = pollster::block_on(instance.request_adapter(&wgpu::RequestAdapterOptions {
+            power_preference: wgpu::PowerPreference::HighPerformance,
+            force_fallback_adapter: false,
+            compatible_surface: Some(&surface),
+            ..Default::default()
+        }))
+        .map_err(|e| GpuError::NoAdapter { details: format!("none can draw into this window: {e}") })?;
+        let info = adapter.get_info();
+        let (device, queue) = pollster::block_on(adapter.request_device(&wgpu::DeviceDescriptor {
+            label: Some("fissure viewer"),
+            required_limits: wgpu::Limits::downlevel_defaults().using_resolution(adapter.limits()),
+            ..Default::default()
+        }))
+        .map_err(|e| GpuError::Device { adapter: info.name.clone(), message: e.to_string() })?;
+        let caps = surface.get_capabilities(&adapter);
+        let format = caps
+            .formats
+            .iter()
+            .copied()
+            .find(|f| f.is_srgb())
+            .or(caps.formats.first().copied())
+            .ok_or_else(|| ViewerError::Surface("the surface offers no format".into()))?;
+        let mut usage = wgpu::TextureUsages::RENDER_ATTACHMENT;
+        if caps.usages.contains(wgpu::TextureUsages::COPY_SRC) {
+            usage |= wgpu::TextureUsages::COPY_SRC; // screenshots straight from the window
+        }
+        let size = window.inner_size();
+        let config = wgpu::SurfaceConfiguration {
+            usage,
+            format,
+            width: size.width.max(1),
+            height: size.height.max(1),
+            present_mode: wgpu::PresentMode::AutoVsync,
+            desired_maximum_frame_latency: 2,
+            alpha_mode: caps.alpha_modes.first().copied().unwrap_or(wgpu::CompositeAlphaMode::Auto),
+            view_formats: vec![],
+            color_space: wgpu::SurfaceColorSpace::Auto,
+        };
+        surface.configure(&device, &config);
+        let mut renderer = Renderer::new(&device, &queue, format);
+        renderer.set_model(&self.world.model, self.world.state.time);
+        let (msaa, depth) = targets(&device, format, config.width, config.height);
+        let adapter_name = format!("{} ({:?}, {:?})", info.name, info.backend, info.device_type);
+        self.gfx = Some(Gfx { window, surface, device, queue, config, renderer, msaa, depth, adapter: adapter_name });
+        Ok(())
+    }
+
+    fn resize(&mut self, w: u32, h: u32) {
+        if let Some(g) = &mut self.gfx
+            && w > 0
+            && h > 0
+        {
+            g.config.width = w;
+            g.config.height = h;
+            g.surface.configure(&g.device, &g.config);
+            (g.msaa, g.depth) = targets(&g.device, g.config.format, w, h);
+        }
+    }
+
+    fn size(&self) -> (f32, f32) {
+        self.gfx.as_ref().map_or((1.0, 1.0), |g| (g.config.width as f32, g.config.height as f32))
+    }
+
+    /// The particle under pixel `(x, y)`: the nearest to the camera among those within 14 px, on a body with
+    /// triangles.
+    fn pick(&self, x: f32, y: f32) -> Option<usize> {
+        let (w, h) = self.size();
+        let m = &self.world.model;
+        let mut best: Option<(f32, f32, usize)> = None;
+        for (i, q) in self.world.state.particle_q.iter().enumerate() {
+            if m.particle_tris.row(i).is_empty() {
+                continue;
+            }
+            if let Some((px, py, depth)) = self.camera.project(*q, w, h) {
+                let d2 = (px - x).powi(2) + (py - y).powi(2);
+                if d2 < 14.0 * 14.0 {
+                    // Prefer the front: depth first, then closeness on screen.
+                    let key = depth + d2 * 1e-7;
+                    if best.is_none_or(|b| key < b.0) {
+                        best = Some((key, d2, i));
+                    }
+                }
+            }
+        }
+        best.map(|b| b.2)
+    }
+
+    fn drag_target(&self, plane_point: Vec3) -> Vec3 {
+        let (w, h) = self.size();
+        let (o, d) = self.camera.ray(self.cursor.0, self.cursor.1, w, h);
+        let n = (self.camera.eye() - self.camera.target).normalize();
+        let denom = d.dot(n);
+        if denom.abs() < 1e-6 {
+            return plane_point;
+        }
+        o + d * ((plane_point - o).dot(n) / denom)
+    }
+
+    fn puncture(&mut self, x: f32, y: f32) {
+        let Some(v) = self.pick(x, y) else { return };
+        let w = &mut self.world;
+        let events = w.fracture.break_core(&mut w.model, &mut w.state, v);
+        if !events.is_empty() {
+            w.solver.notify_model_changed(&w.model);
+            w.events.extend(events);
+            self.model_changed();
+        }
+    }
+
+    fn model_changed(&mut self) {
+        if let Some(g) = &mut self.gfx {
+            g.renderer.set_model(&self.world.model, self.world.state.time);
+        }
+    }
+
+    fn toggle_wind(&mut self) {
+        let m = &mut self.world.model;
+        if let Some(w) = m.wind.take() {
+            self.saved_wind = Some(w);
+        } else {
+            m.wind = self.saved_wind.take();
+        }
+        self.world.solver.notify_model_changed(&self.world.model);
+    }
+
+    fn toggle_pressure(&mut self) {
+        let m = &mut self.world.model;
+        match self.saved_gas.take() {
+            Some(g) if g.len() == m.body_gas_amount.len() => m.body_gas_amount = g,
+            Some(_) => {}
+            None => {
+                self.saved_gas = Some(m.body_gas_amount.clone());
+                m.body_gas_amount.iter_mut().for_each(|g| *g = 0.0);
+            }
+        }
+        self.world.solver.notify_model_changed(&self.world.model);
+    }
+
+    fn restart(&mut self) {
+        if let Some(w) = (self.restart)() {
+            self.world = w;
+            self.saved_wind = None;
+            self.saved_gas = None;
+            self.drag = None;
+            self.model_changed();
+        }
+    }
+
+    /// One frame of simulation: substeps of at most `dt`, the mouse spring applied before each.
+    fn simulate(&mut self) -> Result<(), StepError> {
+        let t0 = Instant::now();
+        self.world.reset_timers();
+        let end = self.world.state.time + self.options.frame_time;
+        let mut changed = false;
+        while self.world.state.time < end - 1e-12 {
+            let h = self.dt.min(end - self.world.state.time);
+            if let Some(d) = &self.drag
+                && d.particle < self.world.state.particle_q.len()
+                && self.world.model.particle_inv_mass[d.particle] > 0.0
+            {
+                let (q, v) = (self.world.state.particle_q[d.particle], self.world.state.particle_qd[d.particle]);
+                let a = DRAG_OMEGA * DRAG_OMEGA * (d.target - q) - 2.0 * DRAG_OMEGA * v;
+                self.world.state.particle_qd[d.particle] = v + a * h as f32;
+            }
+            changed |= self.world.step(h)? > 0;
+        }
+        if changed {
+            self.model_changed();
+        }
+        self.sim_ms = t0.elapsed().as_secs_f64() * 1e3;
+        let t = self.world.timers();
+        for (k, s) in Stage::ALL.iter().enumerate() {
+            self.stage_ms[k] = t.time(*s).as_secs_f64() * 1e3;
+        }
+        Ok(())
+    }
+
+    fn overlay(&self) -> Vec<String> {
+        let w = &self.world;
+        let count = |k| w.events.iter().filter(|e| e.kind == k).count();
+        let stages: Vec<String> = Stage::ALL
+            .iter()
+            .zip(&self.stage_ms)
+            .filter(|(_, ms)| **ms > 0.0)
+            .map(|(s, ms)| format!("{} {ms:.1}", s.name()))
+            .collect();
+        let on = |b: bool| if b { "on" } else { "off" };
+        vec![
+            format!(
+                "t = {:.3} s  {}  {:.0} fps  sim {:.1} ms/frame  draw {:.1} ms",
+                w.state.time,
+                if self.paused { "PAUSED" } else { "running" },
+                self.fps,
+                self.sim_ms,
+                self.draw_ms
+            ),
+            format!("stages [ms]: {}", if stages.is_empty() { "-".into() } else { stages.join("  ") }),
+            format!(
+                "fracture events {} (spring {}, core {})  bodies {}  particles {}",
+                w.events.len(),
+                count(FractureKind::Spring),
+                count(FractureKind::Core),
+                w.model.body_count(),
+                w.model.particle_count()
+            ),
+            format!(
+                "[space] pause [n] step [w] wind {} [p] pressure {} [f] wireframe {} [v] points [r] restart",
+                on(w.model.wind.is_some()),
+                on(self.saved_gas.is_none() && w.model.has_pressure()),
+                on(self.view.wireframe)
+            ),
+            "mouse: left drag a body / orbit, wheel zoom, right click puncture".into(),
+        ]
+    }
+
+    fn redraw(&mut self, event_loop: &ActiveEventLoop) -> Result<(), ViewerError> {
+        if !self.paused || self.step_once {
+            self.step_once = false;
+            self.simulate()?;
+        }
+        let overlay = self.overlay();
+        let now = Instant::now();
+        let dt = now.duration_since(self.last_frame).as_secs_f64();
+        self.last_frame = now;
+        self.fps = if self.fps == 0.0 { 1.0 / dt.max(1e-6) } else { 0.9 * self.fps + 0.1 / dt.max(1e-6) };
+        let t0 = Instant::now();
+        let last = self.options.exit_after.is_some_and(|n| self.frames + 1 >= n);
+        let g = self.gfx.as_mut().expect("initialised");
+        g.renderer.upload_positions(&self.world.state);
+        g.renderer.set_overlay(&overlay, if g.config.width >= 1600 { 2 } else { 1 });
+        let frame = match g.surface.get_current_texture() {
+            wgpu::CurrentSurfaceTexture::Success(f) | wgpu::CurrentSurfaceTexture::Suboptimal(f) => f,
+            wgpu::CurrentSurfaceTexture::Outdated | wgpu::CurrentSurfaceTexture::Lost => {
+                g.surface.configure(&g.device, &g.config);
+                return Ok(());
+            }
+            other => {
+                if last {
+                    return Err(ViewerError::Surface(format!("no frame to draw into: {other:?}")));
+                }
+                return Ok(()); // occluded or timed out: try again next time
+            }
+        };
+        let view = frame.texture.create_view(&Default::default());
+        let mut enc = g.device.create_command_encoder(&Default::default());
+        let size = [g.config.width, g.config.height];
+        g.renderer.encode(&mut enc, &g.msaa, &view, &g.depth, size, &self.camera, &self.view, Positions::Uploaded);
+        let readback =
+            (last && self.options.screenshot.is_some() && g.config.usage.contains(wgpu::TextureUsages::COPY_SRC))
+                .then(|| copy_out(&g.device, &mut enc, &frame.texture, size));
+        g.queue.submit([enc.finish()]);
+        let shot = match readback {
+            Some((buffer, row)) => Some((read_image(&g.device, &buffer, row, size, g.config.format)?, true)),
+            None => None,
+        };
+        g.queue.present(frame);
+        self.draw_ms = t0.elapsed().as_secs_f64() * 1e3;
+        self.frames += 1;
+        if last {
+            if let Some(path) = self.options.screenshot.clone() {
+                let (image, from_window) = match shot {
+                    Some(s) => s,
+                    None => {
+                        // The surface cannot be copied from: draw the same frame offscreen.
+                        let mut r = Renderer::new(&g.device, &g.queue, Offscreen::FORMAT);
+                        r.set_model(&self.world.model, self.world.state.time);
+                        r.upload_positions(&self.world.state);
+                        r.set_overlay(&overlay, 1);
+                        let mut target = Offscreen::new(&g.device, size[0], size[1]);
+                        let image = target.render(
+                            &g.device,
+                            &g.queue,
+                            &mut r,
+                            &self.camera,
+                            &self.view,
+                            Positions::Uploaded,
+                        )?;
+                        (image, false)
+                    }
+                };
+                save_png(&image, &path)?;
+                self.screenshot = Some((path, from_window));
+            }
+            event_loop.exit();
+        }
+        Ok(())
+    }
+
+    fn key(&mut self, event_loop: &ActiveEventLoop, key: &Key) {
+        match key {
+            Key::Named(NamedKey::Space) => self.paused = !self.paused,
+            Key::Named(NamedKey::Escape) => event_loop.exit(),
+            Key::Character(c) => match c.as_str() {
+                "q" => event_loop.exit(),
+                "n" => {
+                    self.paused = true;
+                    self.step_once = true;
+                }
+                "w" => self.toggle_wind(),
+                "p" => self.toggle_pressure(),
+                "f" => self.view.wireframe = !self.view.wireframe,
+                "v" => self.view.points = !self.view.points,
+                "s" => self.view.surfaces = !self.view.surfaces,
+                "r" => self.restart(),
+                _ => {}
+            },
+            _ => {}
+        }
+    }
+}
+
+/// Encodes a copy of `texture` into a new mappable buffer; returns it and its row pitch.
+fn copy_out(
+    device: &wgpu::Device,
+    enc: &mut wgpu::CommandEncoder,
+    texture: &wgpu::Texture,
+    size: [u32; 2],
+) -> (wgpu::Buffer, u32) {
+    let row = (4 * size[0]).next_multiple_of(wgpu::COPY_BYTES_PER_ROW_ALIGNMENT);
+    let buffer = device.create_buffer(&wgpu::BufferDescriptor {
+        label: Some("screenshot"),
+        size: (row * size[1]) as u64,
+        usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+        mapped_at_creation: false,
+    });
+    enc.copy_texture_to_buffer(
+        wgpu::TexelCopyTextureInfo {
+            texture,
+            mip_level: 0,
+            origin: wgpu::Origin3d::ZERO,
+            aspect: wgpu::TextureAspect::All,
+        },
+        wgpu::TexelCopyBufferInfo {
+            buffer: &buffer,
+            layout: wgpu::TexelCopyBufferLayout { offset: 0, bytes_per_row: Some(row), rows_per_image: None },
+        },
+        wgpu::Extent3d { width: size[0], height: size[1], depth_or_array_layers: 1 },
+    );
+    (buffer, row)
+}
+
+/// Maps a copied frame and converts it to RGBA (surfaces are often BGRA).
+fn read_image(
+    device: &wgpu::Device,
+    buffer: &wgpu::Buffer,
+    row: u32,
+    size: [u32; 2],
+    format: wgpu::TextureFormat,
+) -> Result<Image, GpuError> {
+    let (tx, rx) = mpsc::channel();
+    buffer.map_async(wgpu::MapMode::Read, .., move |r| {
+        let _ = tx.send(r);
+    });
+    device.poll(wgpu::PollType::wait_indefinitely()).map_err(|e| GpuError::Readback(e.to_string()))?;
+    rx.recv().map_err(|e| GpuError::Readback(e.to_string()))?.map_err(|e| GpuError::Readback(e.to_string()))?;
+    let bgra = matches!(format, wgpu::TextureFormat::Bgra8Unorm | wgpu::TextureFormat::Bgra8UnormSrgb);
+    let mut rgba = Vec::with_capacity((4 * size[0] * size[1]) as usize);
+    {
+        let data = buffer.get_mapped_range(..).map_err(|e| GpuError::Readback(e.to_string()))?;
+        for r in data.chunks_exact(row as usize) {
+            for p in r[..(4 * size[0]) as usize].chunks_exact(4) {
+                rgba.extend_from_slice(&if bgra { [p[2], p[1], p[0], 255] } else { [p[0], p[1], p[2], 255] });
+            }
+        }
+    }
+    buffer.unmap();
+    Ok(Image { width: size[0], height: size[1], rgba })
+}
+
+impl ApplicationHandler for App {
+    fn resumed(&mut self, event_loop: &ActiveEventLoop) {
+        if self.gfx.is_none()
+            && let Err(e) = self.init(event_loop)
+        {
+            self.fail(event_loop, e);
+        }
+    }
+
+    fn window_event(&mut self, event_loop: &ActiveEventLoop, _id: WindowId, event: WindowEvent) {
+        if self.gfx.is_none() {
+            return;
+        }
+        match event {
+            WindowEvent::CloseRequested => event_loop.exit(),
+            WindowEvent::Resized(s) => self.resize(s.width, s.height),
+            WindowEvent::RedrawRequested => {
+                if let Err(e) = self.redraw(event_loop) {
+                    self.fail(event_loop, e);
+                }
+            }
+            WindowEvent::KeyboardInput { event, .. } if event.state == ElementState::Pressed => {
+                self.key(event_loop, &event.logical_key)
+            }
+            WindowEvent::CursorMoved { position, .. } => {
+                self.cursor = (position.x as f32, position.y as f32);
+                if let Some(d) = &self.drag {
+                    let target = self.drag_target(d.plane_point);
+                    if let Some(d) = &mut self.drag {
+                        d.target = target;
+                    }
+                } else if let Some((x0, y0)) = self.orbit_from {
+                    self.camera.orbit(-(self.cursor.0 - x0) * 0.008, (self.cursor.1 - y0) * 0.008);
+                    self.orbit_from = Some(self.cursor);
+                }
+            }
+            WindowEvent::MouseInput { state, button, .. } => match (button, state) {
+                (MouseButton::Left, ElementState::Pressed) => {
+                    if let Some(i) = self.pick(self.cursor.0, self.cursor.1) {
+                        let p = self.world.state.particle_q[i];
+                        self.drag = Some(Drag { particle: i, plane_point: p, target: p });
+                    } else {
+                        self.orbit_from = Some(self.cursor);
+                    }
+                }
+                (MouseButton::Left, ElementState::Released) => {
+                    self.drag = None;
+                    self.orbit_from = None;
+                }
+                (MouseButton::Right, ElementState::Pressed) => self.puncture(self.cursor.0, self.cursor.1),
+                _ => {}
+            },
+            WindowEvent::MouseWheel { delta, .. } => {
+                let lines = match delta {
+                    MouseScrollDelta::LineDelta(_, y) => y,
+                    MouseScrollDelta::PixelDelta(p) => p.y as f32 / 40.0,
+                };
+                self.camera.zoom(0.9f32.powf(lines));
+            }
+            _ => {}
+        }
+    }
+
+    fn about_to_wait(&mut self, _event_loop: &ActiveEventLoop) {
+        if let Some(g) = &self.gfx {
+            g.window.request_redraw();
+        }
+    }
+}
