@@ -1,15 +1,20 @@
-//! The seed's Fig. 5, headless: a pressurised ball drops into a walled room with sphere obstacles.
+//! The seed's Fig. 5: a pressurised ball drops into a walled room with sphere obstacles (`scenes/ball_drop.toml`).
 //!
 //! ```text
-//! cargo run --release --example ball_drop -- [--frames N] [--integrator symplectic_euler|velocity_verlet|rk4|implicit_euler]
+//! cargo run --release --example ball_drop -- [--headless] [--frames N] [--integrator symplectic_euler|velocity_verlet|rk4|implicit_euler]
 //! ```
-//! Prints a line per 0.1 s of simulated time (height, speed, volume, pressure, contacts), then a summary table
-//! with the stage timers, and checks the outcome: no NaN, no particle inside the floor, walls or obstacles, and
-//! the ball ends on the floor inside the room.
+//! With a display it opens the viewer on the scene. Headless (no display, or `--headless`) it prints a line per
+//! 0.1 s of simulated time (height, speed, volume, pressure, contacts), writes every 10th frame as a PNG and
+//! all of them as a GIF into `target/examples/ball_drop/`, then a summary table with the stage timers, and
+//! checks the outcome: no NaN, no particle inside the floor, walls or obstacles, and the ball at rest on the floor
+//! inside the room.
+
+mod common;
 
 use fissure::glam::DVec3;
-use fissure::scenes::{BallDrop, ball_drop};
+use fissure::scene::Scene;
 use fissure::*;
+use std::path::PathBuf;
 use std::time::Instant;
 
 /// What a run produced, for the final check and the tests.
@@ -29,6 +34,17 @@ pub struct Summary {
     pub volume: (f64, f64),
     /// Particles that touched an obstacle ball at some point.
     pub obstacle_contacts: usize,
+    /// Lowest particle at the end [m].
+    pub final_lowest: f64,
+    /// PNG frames written (empty without an adapter or when not asked for).
+    pub pngs: Vec<PathBuf>,
+}
+
+impl Summary {
+    /// At rest on the floor: slower than 5 cm/s, its lowest point within 5 mm of the floor.
+    pub fn at_rest_on_floor(&self) -> bool {
+        self.speed < 0.05 && self.final_lowest < 5e-3
+    }
 }
 
 const FPS: f64 = 60.0;
@@ -54,11 +70,17 @@ fn penetration(model: &Model<f32>, state: &State<f32>) -> (f64, bool) {
     (deepest, touched_obstacle)
 }
 
-/// Runs `frames` frames at 60 fps with `integrator`, printing progress when `verbose`.
-pub fn run(frames: usize, integrator: Integrator, verbose: bool) -> Result<Summary, Box<dyn std::error::Error>> {
-    let scene = BallDrop::default();
-    let model: Model<f32> = ball_drop(&scene)?.finalize()?;
-    let dt = if integrator == Integrator::ImplicitEuler { 1.0 / 600.0 } else { 1e-4 };
+/// Runs `frames` frames at 60 fps with `integrator`, printing progress when `verbose`, drawing every
+/// `pictures`-th frame when given.
+pub fn run(
+    frames: usize,
+    integrator: Integrator,
+    verbose: bool,
+    pictures: Option<usize>,
+) -> Result<Summary, Box<dyn std::error::Error>> {
+    let scene = Scene::load(common::scene_path("ball_drop.toml"))?;
+    let model: Model<f32> = scene.builder()?.finalize()?;
+    let dt = if integrator == Integrator::ImplicitEuler { 1.0 / 600.0 } else { scene.solver.dt };
     let mut world = World::new(model, SolverConfig::with(integrator));
     let v0 = world.model.body_volumes(&world.state)[0];
     if verbose {
@@ -76,9 +98,17 @@ pub fn run(frames: usize, integrator: Integrator, verbose: bool) -> Result<Summa
         );
     }
     let (mut min_y, mut max_pen, mut obstacle_contacts) = (f64::MAX, 0.0f64, 0usize);
+    let mut pics = match pictures {
+        Some(every) => Some(common::Pictures::new("ball_drop", every, FPS, &world.model, &world.state)?),
+        None => None,
+    };
     let wall = Instant::now();
     for frame in 1..=frames {
         world.advance(1.0 / FPS, dt)?;
+        if let Some(p) = &mut pics {
+            let text = [format!("ball drop  t = {:.2} s  {}", world.state.time, integrator.name())];
+            p.frame(frame, &world.model, &world.state, &text)?;
+        }
         let lowest = world.state.particle_q.iter().map(|q| q.y as f64).fold(f64::MAX, f64::min);
         min_y = min_y.min(lowest);
         let (pen, touched) = penetration(&world.model, &world.state);
@@ -116,6 +146,11 @@ pub fn run(frames: usize, integrator: Integrator, verbose: bool) -> Result<Summa
         speed: world.model.momentum(&world.state).length() / world.model.total_mass(),
         volume: (v0, world.model.body_volumes(&world.state)[0]),
         obstacle_contacts,
+        final_lowest: world.state.particle_q.iter().map(|q| q.y as f64).fold(f64::MAX, f64::min),
+        pngs: match pics {
+            Some(p) => p.finish()?.0,
+            None => Vec::new(),
+        },
     };
     if verbose {
         let elapsed = wall.elapsed().as_secs_f64();
@@ -133,8 +168,8 @@ pub fn run(frames: usize, integrator: Integrator, verbose: bool) -> Result<Summa
     Ok(summary)
 }
 
-/// The example's final check: physically sane for the whole run.
-pub fn check(s: &Summary, room_half_width: f64) -> Result<(), String> {
+/// The example's final check: physically sane for the whole run, and (`rest`) at rest on the floor at the end.
+pub fn check(s: &Summary, room_half_width: f64, rest: bool) -> Result<(), String> {
     if !(s.com.is_finite() && s.speed.is_finite()) {
         return Err(format!("non-finite state: {s:?}"));
     }
@@ -150,14 +185,28 @@ pub fn check(s: &Summary, room_half_width: f64) -> Result<(), String> {
     if s.volume.1 < 0.5 * s.volume.0 {
         return Err(format!("ball collapsed: volume {:?}", s.volume));
     }
+    if rest && !s.at_rest_on_floor() {
+        return Err(format!(
+            "the ball is not at rest on the floor: speed {:.3} m/s, lowest point {:.4} m",
+            s.speed, s.final_lowest
+        ));
+    }
+    for p in &s.pngs {
+        let image = fissure::output::load_png(p).map_err(|e| e.to_string())?;
+        image.check_not_blank(0.002).map_err(|e| format!("{}: {e}", p.display()))?;
+    }
     Ok(())
 }
 
 #[allow(dead_code)]
 fn main() -> Result<(), Box<dyn std::error::Error>> {
+    let all: Vec<String> = std::env::args().skip(1).collect();
+    if common::want_window(&all) {
+        return common::open_window(&common::scene_path("ball_drop.toml"));
+    }
     let mut frames = 240;
     let mut integrator = Integrator::SymplecticEuler;
-    let mut args = std::env::args().skip(1);
+    let mut args = all.into_iter();
     while let Some(a) = args.next() {
         match a.as_str() {
             "--frames" => frames = args.next().ok_or("--frames needs a number")?.parse()?,
@@ -169,17 +218,23 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                     )
                 })?;
             }
+            "--headless" => {}
             "-h" | "--help" => {
                 println!(
-                    "usage: ball_drop [--frames N] [--integrator symplectic_euler|velocity_verlet|rk4|implicit_euler]"
+                    "usage: ball_drop [--headless] [--frames N] [--integrator symplectic_euler|velocity_verlet|rk4|implicit_euler]"
                 );
                 return Ok(());
             }
             other => return Err(format!("unknown argument {other:?} (try --help)").into()),
         }
     }
-    let s = run(frames, integrator, true)?;
-    check(&s, BallDrop::default().room_half_width as f64)?;
-    println!("\nfinal check passed: no NaN, nothing inside a collider, the ball stayed in the room");
+    let s = run(frames, integrator, true, Some(10))?;
+    // At rest only after the full four seconds.
+    check(&s, 1.2, frames >= 240)?;
+    println!(
+        "\nfinal check passed: no NaN, nothing inside a collider, the ball stayed in the room{}; {} frames drawn",
+        if frames >= 240 { " and came to rest on the floor" } else { "" },
+        s.pngs.len()
+    );
     Ok(())
 }

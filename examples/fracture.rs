@@ -1,12 +1,16 @@
-//! The seed's Fig. 6, headless: a pressurised ball with many local fractures (scene `scenes/fracture.toml`).
+//! The seed's Fig. 6: a pressurised ball with many local fractures (scene `scenes/fracture.toml`).
 //!
 //! ```text
-//! cargo run --release --example fracture -- [--scene PATH] [--duration SECONDS]
+//! cargo run --release --example fracture -- [--headless] [--scene PATH] [--duration SECONDS]
 //! ```
-//! Prints a line per 0.1 s of simulated time (fracture events so far, bodies, pieces, volume and gas of the
+//! With a display it opens the viewer on the scene. Headless (no display, or `--headless`) it writes every 5th
+//! frame as a PNG and all of them as a GIF into `target/examples/fracture/`, prints a line per 0.1 s of
+//! simulated time (fracture events so far, bodies, pieces, volume and gas of the
 //! ball), then the events, a summary table and the stage timers, and checks the outcome: at least three fracture
 //! events in at least two separate places, a core block broken off (more pieces than at the start), the
 //! punctured ball's volume falling as its gas leaks, no NaN and no particle inside a collider for the whole run.
+
+mod common;
 
 use fissure::glam::DVec3;
 use fissure::scene::Scene;
@@ -31,6 +35,8 @@ pub struct Summary {
     pub max_penetration: f64,
     /// Whether every position and velocity stayed finite.
     pub finite: bool,
+    /// PNG frames written.
+    pub pngs: Vec<PathBuf>,
 }
 
 impl Summary {
@@ -73,8 +79,14 @@ fn penetration(model: &Model<f32>, state: &State<f32>) -> f64 {
     deepest
 }
 
-/// Runs the scene at `path` for `duration` [s] (the scene's own if `None`), printing progress when `verbose`.
-pub fn run(path: &Path, duration: Option<f64>, verbose: bool) -> Result<Summary, Box<dyn std::error::Error>> {
+/// Runs the scene at `path` for `duration` [s] (the scene's own if `None`), printing progress when `verbose`,
+/// drawing every `pictures`-th frame when given.
+pub fn run(
+    path: &Path,
+    duration: Option<f64>,
+    verbose: bool,
+    pictures: Option<usize>,
+) -> Result<Summary, Box<dyn std::error::Error>> {
     let scene = Scene::load(path)?;
     let mut world: World<f32> = scene.world()?;
     let dt = scene.solver.dt;
@@ -99,15 +111,32 @@ pub fn run(path: &Path, duration: Option<f64>, verbose: bool) -> Result<Summary,
     }
     let (mut max_pen, mut finite) = (0.0f64, true);
     let mut puncture_volume = None;
+    let mut pics = match pictures {
+        Some(every) => Some(common::Pictures::new("fracture", every, FPS, &world.model, &world.state)?),
+        None => None,
+    };
     let wall = Instant::now();
     for frame in 1..=frames {
         let end = frame as f64 / FPS;
+        let mut changed = false;
         while world.state.time < end - 1e-12 {
             let h = dt.min(end - world.state.time);
-            world.step(h)?;
+            changed |= world.step(h)? > 0;
             if puncture_volume.is_none() && !world.model.openings.is_empty() {
                 puncture_volume = Some(world.model.body_volumes(&world.state)[0]);
             }
+        }
+        if let Some(p) = &mut pics {
+            if changed {
+                p.model_changed(&world.model, world.state.time);
+            }
+            let text = [format!(
+                "fracture  t = {:.2} s  events {}  pieces {}",
+                world.state.time,
+                world.events.len(),
+                world.model.body_count()
+            )];
+            p.frame(frame, &world.model, &world.state, &text)?;
         }
         max_pen = max_pen.max(penetration(&world.model, &world.state));
         finite &= world.state.particle_q.iter().chain(&world.state.particle_qd).all(|v| v.is_finite());
@@ -132,6 +161,10 @@ pub fn run(path: &Path, duration: Option<f64>, verbose: bool) -> Result<Summary,
         gas: (gas0, world.model.body_gas_amount[0] as f64),
         max_penetration: max_pen,
         finite,
+        pngs: match pics {
+            Some(p) => p.finish()?.0,
+            None => Vec::new(),
+        },
     };
     if verbose {
         let elapsed = wall.elapsed().as_secs_f64();
@@ -188,28 +221,38 @@ pub fn check(s: &Summary) -> Result<(), String> {
         return Err(format!("no core block came off: pieces {:?}", s.pieces));
     }
     match s.volume_after_puncture {
-        Some((at, end)) if end < at && s.gas.1 < s.gas.0 => Ok(()),
-        other => Err(format!("the punctured ball did not deflate: volume {other:?}, gas {:?}", s.gas)),
+        Some((at, end)) if end < at && s.gas.1 < s.gas.0 => {}
+        other => return Err(format!("the punctured ball did not deflate: volume {other:?}, gas {:?}", s.gas)),
     }
+    for p in &s.pngs {
+        let image = fissure::output::load_png(p).map_err(|e| e.to_string())?;
+        image.check_not_blank(0.002).map_err(|e| format!("{}: {e}", p.display()))?;
+    }
+    Ok(())
 }
 
 #[allow(dead_code)]
 fn main() -> Result<(), Box<dyn std::error::Error>> {
+    let all: Vec<String> = std::env::args().skip(1).collect();
     let mut path = default_scene();
     let mut duration = None;
-    let mut args = std::env::args().skip(1);
+    let mut args = all.clone().into_iter();
     while let Some(a) = args.next() {
         match a.as_str() {
             "--scene" => path = args.next().ok_or("--scene needs a path")?.into(),
             "--duration" => duration = Some(args.next().ok_or("--duration needs seconds")?.parse()?),
+            "--headless" => {}
             "-h" | "--help" => {
-                println!("usage: fracture [--scene PATH] [--duration SECONDS]");
+                println!("usage: fracture [--headless] [--scene PATH] [--duration SECONDS]");
                 return Ok(());
             }
             other => return Err(format!("unknown argument {other:?} (try --help)").into()),
         }
     }
-    let s = run(&path, duration, true)?;
+    if common::want_window(&all) {
+        return common::open_window(&path);
+    }
+    let s = run(&path, duration, true, Some(5))?;
     check(&s)?;
     println!(
         "\nfinal check passed: {} fracture events in {} places, a core block broke off, the ball deflated, no NaN, \

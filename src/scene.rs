@@ -8,6 +8,7 @@
 //! dt = 5e-5                         # [s]
 //! duration = 2.0                    # [s]
 //! gravity = [0.0, -9.81, 0.0]       # [m/s^2]
+//! damping_model = "projected"       # projected (along springs) | unprojected (the seed's eq. 2)
 //!
 //! [fracture]                        # optional: the fracture pass's settings
 //! averaged_window = 0.002           # [s]; omit for the instantaneous trigger
@@ -137,11 +138,20 @@ pub struct SolverSection {
     pub duration: f64,
     /// Gravity [m/s^2]. Default (0, -9.81, 0).
     pub gravity: [f64; 3],
+    /// Spring damping: `projected` (along the spring; default) or `unprojected` (the seed's eq. 2, which also
+    /// damps shear and rotation of each spring).
+    pub damping_model: String,
 }
 
 impl Default for SolverSection {
     fn default() -> Self {
-        SolverSection { integrator: "symplectic_euler".into(), dt: 1e-4, duration: 2.0, gravity: [0.0, -9.81, 0.0] }
+        SolverSection {
+            integrator: "symplectic_euler".into(),
+            dt: 1e-4,
+            duration: 2.0,
+            gravity: [0.0, -9.81, 0.0],
+            damping_model: "projected".into(),
+        }
     }
 }
 
@@ -385,6 +395,15 @@ impl Scene {
             |e: Box<dyn std::error::Error + Send + Sync>| SceneError::Model { path: self.path.clone(), source: e };
         let mut b = ModelBuilder::new();
         b.gravity(v3(self.solver.gravity));
+        b.damping_model(match self.solver.damping_model.as_str() {
+            "projected" => DampingModel::Projected,
+            "unprojected" => DampingModel::Unprojected,
+            other => {
+                return Err(
+                    self.bad("solver.damping_model", format!("unknown {other:?}; one of projected, unprojected"))
+                );
+            }
+        });
         for (k, body) in self.bodies.iter().enumerate() {
             let key = |f: &str| format!("body[{k}].{f}");
             if body.shape == "cloth" {

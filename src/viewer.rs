@@ -48,6 +48,39 @@ pub struct ViewerOptions {
     pub screenshot: Option<PathBuf>,
     /// Start paused.
     pub paused: bool,
+    /// Input to replay, by frame number (for tests and demos): what a user would do with mouse and keys.
+    pub script: Vec<(usize, Action)>,
+}
+
+/// A scripted input (see [`ViewerOptions::script`]).
+#[derive(Clone, Debug, PartialEq)]
+pub enum Action {
+    /// A key press (the characters of the key table, or `" "` for space).
+    Key(String),
+    /// A right click at pixel `(x, y)`: punctures the body there.
+    Puncture(f32, f32),
+    /// A right click on the centre of body `b` as seen from the camera.
+    PunctureBody(usize),
+}
+
+impl std::str::FromStr for Action {
+    type Err = String;
+
+    /// `key:f`, `puncture:480,270` or `puncture-body:0`.
+    fn from_str(s: &str) -> Result<Action, String> {
+        let (kind, arg) =
+            s.split_once(':').ok_or_else(|| format!("{s:?}: want key:K, puncture:X,Y or puncture-body:B"))?;
+        match kind {
+            "key" => Ok(Action::Key(arg.to_string())),
+            "puncture" => {
+                let (x, y) = arg.split_once(',').ok_or_else(|| format!("{s:?}: want puncture:X,Y"))?;
+                let p = |v: &str| v.trim().parse::<f32>().map_err(|_| format!("{s:?}: {v:?} is not a pixel"));
+                Ok(Action::Puncture(p(x)?, p(y)?))
+            }
+            "puncture-body" => arg.parse().map(Action::PunctureBody).map_err(|_| format!("{s:?}: not a body index")),
+            other => Err(format!("{s:?}: unknown action {other:?}")),
+        }
+    }
 }
 
 impl Default for ViewerOptions {
@@ -59,6 +92,7 @@ impl Default for ViewerOptions {
             exit_after: None,
             screenshot: None,
             paused: false,
+            script: Vec::new(),
         }
     }
 }
@@ -440,7 +474,36 @@ impl App {
         ]
     }
 
+    fn play_script(&mut self, event_loop: &ActiveEventLoop) {
+        let due: Vec<Action> =
+            self.options.script.iter().filter(|(f, _)| *f == self.frames).map(|(_, a)| a.clone()).collect();
+        for a in due {
+            match a {
+                Action::Key(k) if k == " " => self.key(event_loop, &Key::Named(NamedKey::Space)),
+                Action::Key(k) => self.key(event_loop, &Key::Character(k.as_str().into())),
+                Action::Puncture(x, y) => self.puncture(x, y),
+                Action::PunctureBody(b) => {
+                    let w = &self.world;
+                    let (mut sum, mut n) = (Vec3::ZERO, 0.0f32);
+                    for (q, body) in w.state.particle_q.iter().zip(&w.model.particle_body) {
+                        if *body as usize == b {
+                            sum += *q;
+                            n += 1.0;
+                        }
+                    }
+                    let (width, height) = self.size();
+                    if n > 0.0
+                        && let Some((x, y, _)) = self.camera.project(sum / n, width, height)
+                    {
+                        self.puncture(x, y);
+                    }
+                }
+            }
+        }
+    }
+
     fn redraw(&mut self, event_loop: &ActiveEventLoop) -> Result<(), ViewerError> {
+        self.play_script(event_loop);
         if !self.paused || self.step_once {
             self.step_once = false;
             self.simulate()?;

@@ -375,13 +375,14 @@ fn print_summary(scene: &Scene, cfg: &RunConfig, s: &RunSummary, backend: &Backe
 
 /// `fissure view SCENE`.
 pub const VIEW_USAGE: &str = "\
-usage: fissure view SCENE [--size WxH] [--paused] [--frames N --screenshot FILE]
+usage: fissure view SCENE [--size WxH] [--paused] [--frames N --screenshot FILE] [--script ACTIONS]
 
   Opens a window on the scene and runs it on the CPU. Mouse: left-drag a body to pull it, left-drag
   elsewhere to orbit, wheel to zoom, right-click to puncture. Keys: space pause, n step, w wind,
   p pressure, f wireframe, v mass points, s surfaces, r restart, q or esc quit.
 
-  --frames N --screenshot FILE   close after N frames and save the last one (for tests)";
+  --frames N --screenshot FILE   close after N frames and save the last one (for tests)
+  --script ACTIONS               replay input, e.g. \"20:puncture-body:0;25:key:f;30:puncture:480,270\"";
 
 pub fn view(args: &[String]) -> Result<(), Box<dyn std::error::Error>> {
     let mut opts = fissure::viewer::ViewerOptions::default();
@@ -398,6 +399,13 @@ pub fn view(args: &[String]) -> Result<(), Box<dyn std::error::Error>> {
             "--paused" => opts.paused = true,
             "--frames" => opts.exit_after = Some(value("--frames")?.parse()?),
             "--screenshot" => opts.screenshot = Some(value("--screenshot")?.into()),
+            "--script" => {
+                for item in value("--script")?.split(';').filter(|s| !s.trim().is_empty()) {
+                    let (frame, action) =
+                        item.split_once(':').ok_or_else(|| format!("--script: {item:?} is not FRAME:ACTION"))?;
+                    opts.script.push((frame.trim().parse()?, action.trim().parse()?));
+                }
+            }
             s if s.starts_with('-') => return Err(format!("unknown option `{s}`").into()),
             s => scene_path = Some(PathBuf::from(s)),
         }

@@ -223,6 +223,40 @@ impl Image {
         seen.iter().filter(|&&s| s).count()
     }
 
+    /// Fraction of bright, nearly grey pixels (luma > 110, channels within 40 of each other): the lit floor and
+    /// walls of a room (the background is dark; bodies are saturated).
+    pub fn room_coverage(&self) -> f64 {
+        let n = self
+            .rgba
+            .chunks_exact(4)
+            .filter(|p| {
+                let (lo, hi) = (p[0].min(p[1]).min(p[2]), p[0].max(p[1]).max(p[2]));
+                let luma = 0.2126 * p[0] as f64 + 0.7152 * p[1] as f64 + 0.0722 * p[2] as f64;
+                luma > 110.0 && hi - lo < 40
+            })
+            .count();
+        n as f64 / (self.width as f64 * self.height as f64).max(1.0)
+    }
+
+    /// A frame that shows something: not one flat colour (luma spread ≥ 10, ≥ 50 distinct colours) and at
+    /// least `min_body` of the pixels in body colour 0. The error says which statistic failed.
+    pub fn check_not_blank(&self, min_body: f64) -> Result<(), String> {
+        let (mean, sd) = self.luma_stats();
+        let colors = self.distinct_colors();
+        let body = self.body_coverage(0);
+        if sd < 10.0 || colors < 50 {
+            return Err(format!("blank frame: luma {mean:.1} ± {sd:.1}, {colors} distinct colours"));
+        }
+        if body < min_body {
+            return Err(format!(
+                "the body covers {:.3} % of the frame, want >= {:.3} %",
+                100.0 * body,
+                100.0 * min_body
+            ));
+        }
+        Ok(())
+    }
+
     /// Fraction of pixels whose hue is close to body colour `k` of [`PALETTE`] (lit or in shade): the
     /// share of the frame a body of that colour covers.
     pub fn body_coverage(&self, k: usize) -> f64 {
