@@ -1,6 +1,9 @@
 //! Examples double as tests: each runs here headless, draws some frames on the GPU adapter (lavapipe in CI), and
 //! its own final check must hold, including pixel statistics of every PNG it wrote (not blank, the body seen).
 //! With `CI` set a missing adapter fails these tests; elsewhere they run without pictures and say so.
+// Each example file declares `mod common;` (examples/common/mod.rs); included here side by side, the module
+// is compiled once per example, which is what the examples themselves do too.
+#![allow(clippy::duplicate_mod)]
 
 #[allow(dead_code)]
 #[path = "../examples/ball_drop.rs"]

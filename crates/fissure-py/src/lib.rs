@@ -1130,6 +1130,39 @@ fn breakable_from(strain_limit: Option<f64>, load_limit: Option<f64>, sealed: bo
 }
 
 /// The compiled core of the `fissure` package.
+/// Reads a scene file (TOML, see `scenes/` and `fissure::scene`): returns a dict with `world` (a `World` at the
+/// scene's initial state, with its integrator and fracture settings), `dt` [s], `duration` [s] and `title`.
+/// Unknown keys and bad values raise `ValueError` naming the key; a missing file raises `OSError`.
+#[pyfunction]
+fn load_scene<'py>(py: Python<'py>, path: std::path::PathBuf) -> PyResult<Bound<'py, PyDict>> {
+    use fissure::scene::{Scene, SceneError};
+    let scene = Scene::load(&path).map_err(|e| match e {
+        SceneError::Io { .. } => pyo3::exceptions::PyOSError::new_err(e.to_string()),
+        e => value_err(e),
+    })?;
+    let model = scene.builder().map_err(value_err)?.finalize::<f32>().map_err(value_err)?;
+    let integrator = match scene.integrator().map_err(value_err)? {
+        RIntegrator::SymplecticEuler => Integrator::SYMPLECTIC_EULER,
+        RIntegrator::VelocityVerlet => Integrator::VELOCITY_VERLET,
+        RIntegrator::Rk4 => Integrator::RK4,
+        RIntegrator::ImplicitEuler => Integrator::IMPLICIT_EULER,
+    };
+    let state = model.state();
+    let world = World {
+        model: Py::new(py, Model { inner: model })?,
+        state: Py::new(py, State { inner: state })?,
+        solver: Py::new(py, Solver::new(integrator, 1e-5, 200)?)?,
+        fracture: fissure::Fracture::new(scene.fracture_config()),
+        events: Vec::new(),
+    };
+    let d = PyDict::new(py);
+    d.set_item("world", Py::new(py, world)?)?;
+    d.set_item("dt", scene.solver.dt)?;
+    d.set_item("duration", scene.solver.duration)?;
+    d.set_item("title", scene.title)?;
+    Ok(d)
+}
+
 #[pymodule]
 fn _fissure(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<Integrator>()?;
@@ -1140,6 +1173,7 @@ fn _fissure(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<State>()?;
     m.add_class::<Solver>()?;
     m.add_class::<World>()?;
+    m.add_function(wrap_pyfunction!(load_scene, m)?)?;
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     Ok(())
 }

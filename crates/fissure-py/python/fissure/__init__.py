@@ -22,6 +22,7 @@ from ._fissure import (
     State,
     World,
     __version__,
+    load_scene,
 )
 
 __all__ = [
@@ -33,5 +34,6 @@ __all__ = [
     "Solver",
     "State",
     "World",
+    "load_scene",
     "__version__",
 ]

@@ -7,7 +7,7 @@ import numpy as np
 import numpy.typing as npt
 
 __version__: str
-__all__ = ["DampingModel", "Integrator", "Mesh", "Model", "ModelBuilder", "Solver", "State", "World", "__version__"]
+__all__ = ["DampingModel", "Integrator", "Mesh", "Model", "ModelBuilder", "Solver", "State", "World", "__version__", "load_scene"]
 
 _Vec3 = tuple[float, float, float]
 
@@ -241,3 +241,5 @@ class World:
     def break_spring(self, index: int) -> list[dict[str, Any]]: ...
     def break_core(self, index: int) -> list[dict[str, Any]]: ...
     def timers(self) -> dict[str, Any]: ...
+
+def load_scene(path: str | os.PathLike[str]) -> dict[str, Any]: ...
