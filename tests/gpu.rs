@@ -464,3 +464,44 @@ fn bad_input_gets_clear_errors() {
     let e = Solver::step(&mut g, &m, &mut s, 1e9).and_then(|_| Solver::step(&mut g, &m, &mut s, 1e9));
     assert!(matches!(e, Err(StepError::NonFinite { .. })), "{e:?}");
 }
+
+/// The renderer draws where the camera projects: the ball's centre pixel is in the body colour, a corner pixel
+/// is background, the floor below the ball is lit grey; drawing the GPU solver's position buffer in place gives
+/// the same image as uploading the same state from the CPU.
+#[test]
+fn renderer_draws_where_the_camera_projects_and_both_position_sources_agree() {
+    use fissure_gpu::render::{Camera, Offscreen, PALETTE, Positions, Renderer, View};
+    let Some(ctx) = gpu() else { return };
+    let mut b = ModelBuilder::new();
+    let ball = Mesh::icosphere(0.3, 3).translated(DVec3::new(0.0, 0.5, 0.0));
+    b.add_soft_body(&ball, &SoftBodyOptions::default()).unwrap();
+    b.add_collider(Collider::ground(0.0));
+    let model: Model<f32> = b.finalize().unwrap();
+    let state = model.state();
+    let mut r = Renderer::new(&ctx.device, &ctx.queue, Offscreen::FORMAT);
+    r.set_model(&model, 0.0);
+    r.upload_positions(&state);
+    let camera = Camera { target: Vec3::new(0.0, 0.4, 0.0), yaw: 0.3, pitch: 0.35, distance: 2.5, fov_y: 0.8 };
+    let mut target = Offscreen::new(&ctx.device, 320, 200);
+    let view = View::default();
+    let cpu = target.render(&ctx.device, &ctx.queue, &mut r, &camera, &view, Positions::Uploaded).unwrap();
+    let (x, y, _) = camera.project(Vec3::new(0.0, 0.5, 0.0), 320.0, 200.0).unwrap();
+    let c = cpu.pixel(x as u32, y as u32);
+    let hue = |p: [u8; 4], q: [u8; 3]| {
+        let (a, b) = (p.map(|v| v as f64), q.map(|v| v as f64));
+        let dot = a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
+        dot / ((a[0] * a[0] + a[1] * a[1] + a[2] * a[2]).sqrt() * (b[0] * b[0] + b[1] * b[1] + b[2] * b[2]).sqrt())
+    };
+    assert!(hue(c, PALETTE[0]) > 0.98, "centre pixel {c:?} is not the body's colour");
+    let corner = cpu.pixel(2, 2);
+    assert!(corner[0] < 40 && corner[1] < 40 && corner[2] < 50, "corner {corner:?} is not background");
+    let (fx, fy, _) = camera.project(Vec3::new(0.0, 0.0, 0.6), 320.0, 200.0).unwrap();
+    let floor = cpu.pixel(fx as u32, fy as u32);
+    assert!(floor[0] > 110 && floor[0].abs_diff(floor[2]) < 40, "floor pixel {floor:?}");
+    let mut gpu = GpuSolver::new(ctx.device.clone(), ctx.queue.clone(), &model, GpuConfig::default()).unwrap();
+    gpu.upload_state(&state).unwrap();
+    let on_gpu = target
+        .render(&ctx.device, &ctx.queue, &mut r, &camera, &view, Positions::Buffer(gpu.position_buffer()))
+        .unwrap();
+    assert_eq!(on_gpu, cpu, "the GPU buffer and the uploaded state draw differently");
+}
