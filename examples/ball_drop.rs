@@ -191,11 +191,7 @@ pub fn check(s: &Summary, room_half_width: f64, rest: bool) -> Result<(), String
             s.speed, s.final_lowest
         ));
     }
-    for p in &s.pngs {
-        let image = fissure::output::load_png(p).map_err(|e| e.to_string())?;
-        image.check_not_blank(0.002).map_err(|e| format!("{}: {e}", p.display()))?;
-    }
-    Ok(())
+    common::check_frames(&s.pngs, 0.002)
 }
 
 #[allow(dead_code)]

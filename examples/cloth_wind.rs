@@ -82,7 +82,8 @@ pub fn run(frames: usize, verbose: bool, pictures: Option<usize>) -> Result<Summ
     let (mut strain, mut min_y, mut finite) = (0.0f64, f64::MAX, true);
     for frame in 1..=frames {
         world.advance(1.0 / FPS, dt)?;
-        strain = strain.max(max_strain(&world.model, &world.state));
+        let strain_now = max_strain(&world.model, &world.state);
+        strain = strain.max(strain_now);
         let lowest = world.state.particle_q.iter().map(|q| q.y as f64).fold(f64::MAX, f64::min);
         min_y = min_y.min(lowest);
         finite &= world.state.particle_q.iter().chain(&world.state.particle_qd).all(|v| v.is_finite());
@@ -96,7 +97,7 @@ pub fn run(frames: usize, verbose: bool, pictures: Option<usize>) -> Result<Summ
                 "{frame:>6} {:>7.3} {:>13.3} {:>10.1}% {:>10.3}",
                 world.state.time,
                 downwind(&world.state),
-                100.0 * max_strain(&world.model, &world.state),
+                100.0 * strain_now,
                 lowest
             );
         }
@@ -132,11 +133,7 @@ pub fn check(s: &Summary) -> Result<(), String> {
     if s.min_y < -1e-5 {
         return Err(format!("the cloth went through the ground: lowest y {}", s.min_y));
     }
-    for p in &s.pngs {
-        let image = fissure::output::load_png(p).map_err(|e| e.to_string())?;
-        image.check_not_blank(0.01).map_err(|e| format!("{}: {e}", p.display()))?;
-    }
-    Ok(())
+    common::check_frames(&s.pngs, 0.01)
 }
 
 #[allow(dead_code)]

@@ -224,11 +224,7 @@ pub fn check(s: &Summary) -> Result<(), String> {
         Some((at, end)) if end < at && s.gas.1 < s.gas.0 => {}
         other => return Err(format!("the punctured ball did not deflate: volume {other:?}, gas {:?}", s.gas)),
     }
-    for p in &s.pngs {
-        let image = fissure::output::load_png(p).map_err(|e| e.to_string())?;
-        image.check_not_blank(0.002).map_err(|e| format!("{}: {e}", p.display()))?;
-    }
-    Ok(())
+    common::check_frames(&s.pngs, 0.002)
 }
 
 #[allow(dead_code)]

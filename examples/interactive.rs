@@ -43,14 +43,16 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         let mut world = world;
         let mut pics = common::Pictures::new("interactive", 10, 60.0, &world.model, &world.state)?;
         for frame in 1..=60 {
-            if world.advance(1.0 / 60.0, scene.solver.dt).is_err() {
-                break;
+            let events = world.events.len();
+            world.advance(1.0 / 60.0, scene.solver.dt)?;
+            if world.events.len() > events {
+                pics.model_changed(&world.model, world.state.time);
             }
-            pics.model_changed(&world.model, world.state.time);
             pics.frame(frame, &world.model, &world.state, &[format!("t = {:.2} s", world.state.time)])?;
         }
         let (pngs, why) = pics.finish()?;
         println!("{} frames written{}", pngs.len(), why.map(|w| format!(" (none drawn: {w})")).unwrap_or_default());
+        common::check_frames(&pngs, 0.002)?;
         return Ok(());
     }
     opts.title = format!("fissure: {}", scene.title);

@@ -239,6 +239,17 @@ pub struct BodySection {
     pub sealed: bool,
 }
 
+impl BodySection {
+    /// How the body breaks: `None` unless a limit (or `sealed`) is given; a missing limit is infinite (off).
+    fn breakable(&self) -> Option<Breakable> {
+        (self.strain_limit.is_some() || self.load_limit.is_some() || self.sealed).then(|| Breakable {
+            strain_limit: self.strain_limit.unwrap_or(f64::INFINITY),
+            load_limit: self.load_limit.unwrap_or(f64::INFINITY),
+            sealed: self.sealed,
+        })
+    }
+}
+
 fn one() -> f64 {
     1.0
 }
@@ -410,11 +421,13 @@ impl Scene {
                 self.add_cloth(&mut b, k, body)?;
                 continue;
             }
-            for (f, v) in [("resolution", body.resolution.is_some()), ("width", body.width.is_some())]
-                .into_iter()
-                .chain([("orientation", body.orientation.is_some()), ("pin", body.pin.is_some())])
-                .chain([("shear", body.shear.is_some())])
-            {
+            for (f, v) in [
+                ("resolution", body.resolution.is_some()),
+                ("width", body.width.is_some()),
+                ("orientation", body.orientation.is_some()),
+                ("pin", body.pin.is_some()),
+                ("shear", body.shear.is_some()),
+            ] {
                 if v {
                     return Err(self.bad(key(f), format!("applies to a cloth only, not a {}", body.shape)));
                 }
@@ -446,12 +459,7 @@ impl Scene {
                         .bad(key("shape"), format!("unknown shape {other:?}; one of icosphere, cuboid, obj, cloth")));
                 }
             };
-            let fracture =
-                (body.strain_limit.is_some() || body.load_limit.is_some() || body.sealed).then(|| Breakable {
-                    strain_limit: body.strain_limit.unwrap_or(f64::INFINITY),
-                    load_limit: body.load_limit.unwrap_or(f64::INFINITY),
-                    sealed: body.sealed,
-                });
+            let fracture = body.breakable();
             let opts = SoftBodyOptions {
                 mass: Mass::Total(body.mass),
                 stiffness: Stiffness::Membrane(body.stiffness),
@@ -550,7 +558,7 @@ impl Scene {
         if body.pressure.is_some_and(|p| p != 0.0) {
             return Err(self.bad(key("pressure"), "an open cloth holds no gas; remove the key"));
         }
-        for (f, set) in [("radius", body.radius.is_some()), ("file", body.file.is_some())] {
+        for (f, set) in [("radius", body.radius.is_some()), ("file", body.file.is_some()), ("sealed", body.sealed)] {
             if set {
                 return Err(self.bad(key(f), "does not apply to a cloth"));
             }
@@ -588,11 +596,7 @@ impl Scene {
             damping: Damping::Ratio(body.damping_ratio),
             pins,
             aero: Aero::default(),
-            fracture: (body.strain_limit.is_some() || body.load_limit.is_some()).then(|| Breakable {
-                strain_limit: body.strain_limit.unwrap_or(f64::INFINITY),
-                load_limit: body.load_limit.unwrap_or(f64::INFINITY),
-                sealed: false,
-            }),
+            fracture: body.breakable(),
         };
         if body.velocity != [0.0; 3] {
             return Err(self.bad(key("velocity"), "a cloth starts at rest; remove the key"));

@@ -19,13 +19,13 @@
 //! frames to a PNG and closes the window: read back from the window's own surface texture when the driver
 //! allows (lavapipe on Xvfb does), otherwise drawn again offscreen from the same state and camera.
 
-use crate::gpu::render::{Camera, Image, Offscreen, Positions, Renderer, View, targets};
+use crate::gpu::render::{Camera, Offscreen, Positions, Readback, Renderer, View, targets};
 use crate::gpu::{GpuError, wgpu};
 use crate::output::{OutputError, save_png};
 use crate::{FractureKind, Solver, Stage, StepError, World};
 use glam::Vec3;
 use std::path::PathBuf;
-use std::sync::{Arc, mpsc};
+use std::sync::Arc;
 use std::time::Instant;
 use winit::application::ApplicationHandler;
 use winit::event::{ElementState, MouseButton, MouseScrollDelta, WindowEvent};
@@ -537,10 +537,13 @@ impl App {
         g.renderer.encode(&mut enc, &g.msaa, &view, &g.depth, size, &self.camera, &self.view, Positions::Uploaded);
         let readback =
             (last && self.options.screenshot.is_some() && g.config.usage.contains(wgpu::TextureUsages::COPY_SRC))
-                .then(|| copy_out(&g.device, &mut enc, &frame.texture, size));
+                .then(|| Readback::new(&g.device, size[0], size[1]));
+        if let Some(r) = &readback {
+            r.encode_copy(&mut enc, &frame.texture);
+        }
         g.queue.submit([enc.finish()]);
         let shot = match readback {
-            Some((buffer, row)) => Some((read_image(&g.device, &buffer, row, size, g.config.format)?, true)),
+            Some(r) => Some((r.read(&g.device, g.config.format)?, true)),
             None => None,
         };
         g.queue.present(frame);
@@ -597,64 +600,6 @@ impl App {
             _ => {}
         }
     }
-}
-
-/// Encodes a copy of `texture` into a new mappable buffer; returns it and its row pitch.
-fn copy_out(
-    device: &wgpu::Device,
-    enc: &mut wgpu::CommandEncoder,
-    texture: &wgpu::Texture,
-    size: [u32; 2],
-) -> (wgpu::Buffer, u32) {
-    let row = (4 * size[0]).next_multiple_of(wgpu::COPY_BYTES_PER_ROW_ALIGNMENT);
-    let buffer = device.create_buffer(&wgpu::BufferDescriptor {
-        label: Some("screenshot"),
-        size: (row * size[1]) as u64,
-        usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
-        mapped_at_creation: false,
-    });
-    enc.copy_texture_to_buffer(
-        wgpu::TexelCopyTextureInfo {
-            texture,
-            mip_level: 0,
-            origin: wgpu::Origin3d::ZERO,
-            aspect: wgpu::TextureAspect::All,
-        },
-        wgpu::TexelCopyBufferInfo {
-            buffer: &buffer,
-            layout: wgpu::TexelCopyBufferLayout { offset: 0, bytes_per_row: Some(row), rows_per_image: None },
-        },
-        wgpu::Extent3d { width: size[0], height: size[1], depth_or_array_layers: 1 },
-    );
-    (buffer, row)
-}
-
-/// Maps a copied frame and converts it to RGBA (surfaces are often BGRA).
-fn read_image(
-    device: &wgpu::Device,
-    buffer: &wgpu::Buffer,
-    row: u32,
-    size: [u32; 2],
-    format: wgpu::TextureFormat,
-) -> Result<Image, GpuError> {
-    let (tx, rx) = mpsc::channel();
-    buffer.map_async(wgpu::MapMode::Read, .., move |r| {
-        let _ = tx.send(r);
-    });
-    device.poll(wgpu::PollType::wait_indefinitely()).map_err(|e| GpuError::Readback(e.to_string()))?;
-    rx.recv().map_err(|e| GpuError::Readback(e.to_string()))?.map_err(|e| GpuError::Readback(e.to_string()))?;
-    let bgra = matches!(format, wgpu::TextureFormat::Bgra8Unorm | wgpu::TextureFormat::Bgra8UnormSrgb);
-    let mut rgba = Vec::with_capacity((4 * size[0] * size[1]) as usize);
-    {
-        let data = buffer.get_mapped_range(..).map_err(|e| GpuError::Readback(e.to_string()))?;
-        for r in data.chunks_exact(row as usize) {
-            for p in r[..(4 * size[0]) as usize].chunks_exact(4) {
-                rgba.extend_from_slice(&if bgra { [p[2], p[1], p[0], 255] } else { [p[0], p[1], p[2], 255] });
-            }
-        }
-    }
-    buffer.unmap();
-    Ok(Image { width: size[0], height: size[1], rgba })
 }
 
 impl ApplicationHandler for App {

@@ -84,3 +84,13 @@ impl Pictures {
         Ok((pngs, why))
     }
 }
+
+/// Every PNG in `pngs` passes the pixel check of [`fissure::gpu::render::Image::check_not_blank`] with the body
+/// covering at least `min_body` of the frame; the error names the file.
+pub fn check_frames(pngs: &[PathBuf], min_body: f64) -> Result<(), String> {
+    for p in pngs {
+        let image = fissure::output::load_png(p).map_err(|e| e.to_string())?;
+        image.check_not_blank(min_body).map_err(|e| format!("{}: {e}", p.display()))?;
+    }
+    Ok(())
+}

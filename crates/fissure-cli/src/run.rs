@@ -49,6 +49,16 @@ usage: fissure run SCENE [--frames N] [--fps F] [--out DIR] [--backend cpu|gpu] 
 Without a GPU the frames are drawn by the software Vulkan driver (lavapipe: on Debian or Ubuntu
 `apt install mesa-vulkan-drivers`); with no adapter at all it still simulates and prints the summary.";
 
+/// `WxH` in pixels, each within 16..=8192.
+fn parse_size(v: &str) -> Result<[u32; 2], String> {
+    let (w, h) = v.split_once('x').ok_or_else(|| format!("--size: want WxH, got {v:?}"))?;
+    let p = |s: &str| s.parse::<u32>().ok().filter(|&n| (16..=8192).contains(&n));
+    Ok([
+        p(w).ok_or_else(|| format!("--size: width {w:?} not in 16..=8192"))?,
+        p(h).ok_or_else(|| format!("--size: height {h:?} not in 16..=8192"))?,
+    ])
+}
+
 pub fn parse(args: &[String]) -> Result<RunConfig, String> {
     let mut cfg = RunConfig {
         scene: PathBuf::new(),
@@ -86,15 +96,7 @@ pub fn parse(args: &[String]) -> Result<RunConfig, String> {
                     other => return Err(format!("--backend: {other:?} is neither cpu nor gpu")),
                 }
             }
-            "--size" => {
-                let v = value("--size")?;
-                let (w, h) = v.split_once('x').ok_or_else(|| format!("--size: want WxH, got {v:?}"))?;
-                let p = |s: &str| s.parse::<u32>().ok().filter(|&n| (16..=8192).contains(&n));
-                cfg.size = [
-                    p(w).ok_or_else(|| format!("--size: width {w:?} not in 16..=8192"))?,
-                    p(h).ok_or_else(|| format!("--size: height {h:?} not in 16..=8192"))?,
-                ];
-            }
+            "--size" => cfg.size = parse_size(&value("--size")?)?,
             "--mesh" => {
                 cfg.mesh = Some(match value("--mesh")?.as_str() {
                     "obj" => MeshFormat::Obj,
@@ -391,11 +393,7 @@ pub fn view(args: &[String]) -> Result<(), Box<dyn std::error::Error>> {
     while let Some(a) = it.next() {
         let mut value = |name: &str| it.next().cloned().ok_or_else(|| format!("{name} needs a value"));
         match a.as_str() {
-            "--size" => {
-                let v = value("--size")?;
-                let (w, h) = v.split_once('x').ok_or_else(|| format!("--size: want WxH, got {v:?}"))?;
-                opts.size = [w.parse()?, h.parse()?];
-            }
+            "--size" => opts.size = parse_size(&value("--size")?)?,
             "--paused" => opts.paused = true,
             "--frames" => opts.exit_after = Some(value("--frames")?.parse()?),
             "--screenshot" => opts.screenshot = Some(value("--screenshot")?.into()),

@@ -339,7 +339,7 @@ pub struct Renderer {
     statics: wgpu::RenderPipeline,
     lines: wgpu::RenderPipeline,
     points: wgpu::RenderPipeline,
-    overlay: wgpu::RenderPipeline,
+    overlay_pipeline: wgpu::RenderPipeline,
     positions: Sized,
     colors: Sized,
     tris: Sized,
@@ -351,8 +351,15 @@ pub struct Renderer {
     spring_indices: u32,
     static_draws: Vec<StaticDraw>,
     moving_colliders: bool,
-    overlay_bind: Option<(wgpu::BindGroup, [u32; 2])>,
-    overlay_rect: Option<wgpu::Buffer>,
+    overlay: Option<Overlay>,
+}
+
+/// The text panel: its texture, where it goes (a uniform rectangle), their bind group, and its size [px].
+struct Overlay {
+    texture: wgpu::Texture,
+    rect: wgpu::Buffer,
+    bind: wgpu::BindGroup,
+    size: [u32; 2],
 }
 
 /// A buffer that grows (by a quarter more than asked) and is otherwise reused.
@@ -540,7 +547,7 @@ impl Renderer {
             depth(true),
             None,
         );
-        let overlay = make(
+        let overlay_pipeline = make(
             "overlay",
             &overlay_pipeline_layout,
             "overlay_vs",
@@ -569,14 +576,13 @@ impl Renderer {
             statics,
             lines,
             points,
-            overlay,
+            overlay_pipeline,
             particles: 0,
             tri_indices: 0,
             spring_indices: 0,
             static_draws: Vec::new(),
             moving_colliders: false,
-            overlay_bind: None,
-            overlay_rect: None,
+            overlay: None,
         }
     }
 
@@ -684,24 +690,43 @@ impl Renderer {
     /// Text drawn in the top-left corner (white on a translucent panel, 8×8 glyphs at `scale`); empty: none.
     pub fn set_overlay(&mut self, lines: &[String], scale: u32) {
         let Some(text) = TextImage::render(lines, scale) else {
-            self.overlay_bind = None;
-            self.overlay_rect = None;
+            self.overlay = None;
             return;
         };
         let size = wgpu::Extent3d { width: text.width, height: text.height, depth_or_array_layers: 1 };
-        let texture = self.device.create_texture(&wgpu::TextureDescriptor {
-            label: Some("overlay"),
-            size,
-            mip_level_count: 1,
-            sample_count: 1,
-            dimension: wgpu::TextureDimension::D2,
-            format: wgpu::TextureFormat::Rgba8Unorm,
-            usage: wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::COPY_DST,
-            view_formats: &[],
-        });
+        // The text changes every frame, its panel's size rarely: the texture is rewritten in place, and made anew
+        // (with its bind group) only when the size changes.
+        if self.overlay.as_ref().is_none_or(|o| o.size != [text.width, text.height]) {
+            let texture = self.device.create_texture(&wgpu::TextureDescriptor {
+                label: Some("overlay"),
+                size,
+                mip_level_count: 1,
+                sample_count: 1,
+                dimension: wgpu::TextureDimension::D2,
+                format: wgpu::TextureFormat::Rgba8Unorm,
+                usage: wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::COPY_DST,
+                view_formats: &[],
+            });
+            let rect = self.device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                label: Some("overlay rect"),
+                contents: &[0u8; 16],
+                usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+            });
+            let view = texture.create_view(&Default::default());
+            let bind = self.device.create_bind_group(&wgpu::BindGroupDescriptor {
+                label: Some("overlay"),
+                layout: &self.overlay_layout,
+                entries: &[
+                    wgpu::BindGroupEntry { binding: 0, resource: wgpu::BindingResource::TextureView(&view) },
+                    wgpu::BindGroupEntry { binding: 1, resource: rect.as_entire_binding() },
+                ],
+            });
+            self.overlay = Some(Overlay { texture, rect, bind, size: [text.width, text.height] });
+        }
+        let o = self.overlay.as_ref().expect("made above");
         self.queue.write_texture(
             wgpu::TexelCopyTextureInfo {
-                texture: &texture,
+                texture: &o.texture,
                 mip_level: 0,
                 origin: wgpu::Origin3d::ZERO,
                 aspect: wgpu::TextureAspect::All,
@@ -710,22 +735,6 @@ impl Renderer {
             wgpu::TexelCopyBufferLayout { offset: 0, bytes_per_row: Some(4 * text.width), rows_per_image: None },
             size,
         );
-        let rect = self.device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-            label: Some("overlay rect"),
-            contents: &[0u8; 16],
-            usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
-        });
-        let view = texture.create_view(&Default::default());
-        let bind = self.device.create_bind_group(&wgpu::BindGroupDescriptor {
-            label: Some("overlay"),
-            layout: &self.overlay_layout,
-            entries: &[
-                wgpu::BindGroupEntry { binding: 0, resource: wgpu::BindingResource::TextureView(&view) },
-                wgpu::BindGroupEntry { binding: 1, resource: rect.as_entire_binding() },
-            ],
-        });
-        self.overlay_bind = Some((bind, [text.width, text.height]));
-        self.overlay_rect = Some(rect);
     }
 
     /// Records the drawing of one frame into `encoder`: clears `color` (multisampled, [`SAMPLES`]) and
@@ -752,15 +761,10 @@ impl Renderer {
             light: light.extend(0.0).to_array(),
         };
         self.queue.write_buffer(&self.camera, 0, bytemuck::bytes_of(&u));
-        if let (Some((_, [tw, th])), Some(rect)) = (&self.overlay_bind, &self.overlay_rect) {
-            let (x0, y0) = (8.0, 8.0);
-            let r = [
-                2.0 * x0 / w - 1.0,
-                1.0 - 2.0 * y0 / h,
-                2.0 * (x0 + *tw as f32) / w - 1.0,
-                1.0 - 2.0 * (y0 + *th as f32) / h,
-            ];
-            self.queue.write_buffer(rect, 0, bytemuck::cast_slice(&r));
+        if let Some(o) = &self.overlay {
+            let (x0, y0, [tw, th]) = (8.0, 8.0, o.size.map(|v| v as f32));
+            let r = [2.0 * x0 / w - 1.0, 1.0 - 2.0 * y0 / h, 2.0 * (x0 + tw) / w - 1.0, 1.0 - 2.0 * (y0 + th) / h];
+            self.queue.write_buffer(&o.rect, 0, bytemuck::cast_slice(&r));
         }
         let q = match positions {
             Positions::Uploaded => &self.positions.buffer,
@@ -818,9 +822,9 @@ impl Renderer {
                 pass.draw(0..6, 0..self.particles);
             }
         }
-        if let Some((bind, _)) = &self.overlay_bind {
-            pass.set_pipeline(&self.overlay);
-            pass.set_bind_group(1, bind, &[]);
+        if let Some(o) = &self.overlay {
+            pass.set_pipeline(&self.overlay_pipeline);
+            pass.set_bind_group(1, &o.bind, &[]);
             pass.draw(0..6, 0..1);
         }
     }
@@ -907,8 +911,7 @@ pub struct Offscreen {
     resolve: wgpu::Texture,
     resolve_view: wgpu::TextureView,
     depth: wgpu::TextureView,
-    readback: wgpu::Buffer,
-    row_bytes: u32,
+    readback: Readback,
 }
 
 impl Offscreen {
@@ -929,15 +932,9 @@ impl Offscreen {
             usage: wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::COPY_SRC,
             view_formats: &[],
         });
-        let row_bytes = (4 * width).next_multiple_of(wgpu::COPY_BYTES_PER_ROW_ALIGNMENT);
-        let readback = device.create_buffer(&wgpu::BufferDescriptor {
-            label: Some("offscreen readback"),
-            size: (row_bytes * height) as u64,
-            usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
-            mapped_at_creation: false,
-        });
+        let readback = Readback::new(device, width, height);
         let resolve_view = resolve.create_view(&Default::default());
-        Offscreen { width, height, color, resolve, resolve_view, depth, readback, row_bytes }
+        Offscreen { width, height, color, resolve, resolve_view, depth, readback }
     }
 
     /// Size in pixels.
@@ -957,39 +954,79 @@ impl Offscreen {
     ) -> Result<Image, GpuError> {
         let mut enc = device.create_command_encoder(&Default::default());
         renderer.encode(&mut enc, &self.color, &self.resolve_view, &self.depth, self.size(), camera, view, positions);
+        self.readback.encode_copy(&mut enc, &self.resolve);
+        queue.submit([enc.finish()]);
+        self.readback.read(device, Self::FORMAT)
+    }
+}
+
+/// A mappable buffer that a texture of a given size is copied into, rows padded to wgpu's 256-byte alignment:
+/// the read-back of [`Offscreen`] frames and of a window's surface (screenshots).
+pub struct Readback {
+    buffer: wgpu::Buffer,
+    row_bytes: u32,
+    size: [u32; 2],
+}
+
+impl Readback {
+    /// For RGBA8 or BGRA8 textures of `width × height`.
+    pub fn new(device: &wgpu::Device, width: u32, height: u32) -> Readback {
+        let row_bytes = (4 * width).next_multiple_of(wgpu::COPY_BYTES_PER_ROW_ALIGNMENT);
+        let buffer = device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("readback"),
+            size: (row_bytes * height) as u64,
+            usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        });
+        Readback { buffer, row_bytes, size: [width, height] }
+    }
+
+    /// Records the copy of `texture` (of this size, with `COPY_SRC` usage) into the buffer.
+    pub fn encode_copy(&self, enc: &mut wgpu::CommandEncoder, texture: &wgpu::Texture) {
         enc.copy_texture_to_buffer(
             wgpu::TexelCopyTextureInfo {
-                texture: &self.resolve,
+                texture,
                 mip_level: 0,
                 origin: wgpu::Origin3d::ZERO,
                 aspect: wgpu::TextureAspect::All,
             },
             wgpu::TexelCopyBufferInfo {
-                buffer: &self.readback,
+                buffer: &self.buffer,
                 layout: wgpu::TexelCopyBufferLayout {
                     offset: 0,
                     bytes_per_row: Some(self.row_bytes),
                     rows_per_image: None,
                 },
             },
-            wgpu::Extent3d { width: self.width, height: self.height, depth_or_array_layers: 1 },
+            wgpu::Extent3d { width: self.size[0], height: self.size[1], depth_or_array_layers: 1 },
         );
-        queue.submit([enc.finish()]);
+    }
+
+    /// Waits for the submitted copy and returns it as RGBA (`format` says whether the texture was BGRA).
+    pub fn read(&self, device: &wgpu::Device, format: wgpu::TextureFormat) -> Result<Image, GpuError> {
+        let err = |e: &dyn std::fmt::Display| GpuError::Readback(e.to_string());
         let (tx, rx) = mpsc::channel();
-        self.readback.map_async(wgpu::MapMode::Read, .., move |r| {
+        self.buffer.map_async(wgpu::MapMode::Read, .., move |r| {
             let _ = tx.send(r);
         });
-        device.poll(wgpu::PollType::wait_indefinitely()).map_err(|e| GpuError::Readback(e.to_string()))?;
-        rx.recv().map_err(|e| GpuError::Readback(e.to_string()))?.map_err(|e| GpuError::Readback(e.to_string()))?;
-        let mut rgba = Vec::with_capacity((4 * self.width * self.height) as usize);
+        device.poll(wgpu::PollType::wait_indefinitely()).map_err(|e| err(&e))?;
+        rx.recv().map_err(|e| err(&e))?.map_err(|e| err(&e))?;
+        let bgra = matches!(format, wgpu::TextureFormat::Bgra8Unorm | wgpu::TextureFormat::Bgra8UnormSrgb);
+        let [width, height] = self.size;
+        let mut rgba = Vec::with_capacity((4 * width * height) as usize);
         {
-            let data = self.readback.get_mapped_range(..).map_err(|e| GpuError::Readback(e.to_string()))?;
+            let data = self.buffer.get_mapped_range(..).map_err(|e| err(&e))?;
             for row in data.chunks_exact(self.row_bytes as usize) {
-                rgba.extend_from_slice(&row[..(4 * self.width) as usize]);
+                let row = &row[..(4 * width) as usize];
+                if bgra {
+                    rgba.extend(row.chunks_exact(4).flat_map(|p| [p[2], p[1], p[0], p[3]]));
+                } else {
+                    rgba.extend_from_slice(row);
+                }
             }
         }
-        self.readback.unmap();
-        Ok(Image { width: self.width, height: self.height, rgba })
+        self.buffer.unmap();
+        Ok(Image { width, height, rgba })
     }
 }
 
