@@ -125,3 +125,46 @@ fn flat_index(gid: vec3<u32>, nwg: vec3<u32>) -> u32 {
 fn particle_count() -> u32 { return params.counts.x; }
 fn spring_count() -> u32 { return params.counts.y; }
 fn tri_count() -> u32 { return params.counts.z; }
+
+// ---- One home per equation: the scalar formulas every kernel uses, each the twin of one Rust function. ----
+
+// Seed eqs. (1)-(2): the force of spring `s` on its end 0 with `d = xj - xi`, `dv = vj - vi`; projected damping
+// when `projected`, else the paper's unprojected form. Coincident ends have no direction and no elastic force.
+// Rust twin: `fissure_core::forces::spring::force_components`.
+fn spring_force_of(d: vec3<f32>, dv: vec3<f32>, rest: f32, ks: f32, kd: f32, projected: bool) -> vec3<f32> {
+    let l2 = dot(d, d);
+    let l = sqrt(l2);
+    let inv = select(0.0, 1.0 / l, l2 > 0.0);
+    let u = d * inv;
+    if (projected) {
+        return u * (ks * (l - rest) + kd * dot(dv, u));
+    }
+    return u * (ks * (l - rest)) + dv * kd;
+}
+
+// The model's spring `s` with the model's damping form (params.gravity.w: 1 projected, 0 unprojected).
+fn spring_force(s: Spring, d: vec3<f32>, dv: vec3<f32>) -> vec3<f32> {
+    return spring_force_of(d, dv, s.rest, s.ks, s.kd, params.gravity.w != 0.0);
+}
+
+// The elastic part alone, `ks (l - L0) d̂` (the fracture load). Rust twin: `forces::spring::elastic_force`.
+fn spring_elastic_force(s: Spring, d: vec3<f32>) -> vec3<f32> {
+    return spring_force_of(d, vec3<f32>(0.0), s.rest, s.ks, 0.0, true);
+}
+
+// A body's volume is clamped below at this fraction of its rest volume before `P = nRT / V`.
+// Rust twin: `fissure_core::forces::pressure::MIN_VOLUME_FRACTION`.
+const MIN_VOLUME_FRACTION: f32 = 1e-3;
+
+// Net gas pressure `nRT / max(V, MIN_VOLUME_FRACTION V0) - P_ext` [Pa]; 0 without gas.
+// Rust twin: `fissure_core::forces::pressure::gas_pressure`.
+fn gas_pressure(gas: f32, volume: f32, rest_volume: f32, external: f32) -> f32 {
+    if (gas <= 0.0) { return 0.0; }
+    return gas / max(volume, rest_volume * MIN_VOLUME_FRACTION) - external;
+}
+
+// Seed eq. (9): the pressure force on each corner of a triangle with cross vector `cross` under pressure `p`.
+// Rust twin: `fissure_core::forces::pressure::corner_force`.
+fn pressure_corner_force(cross: vec3<f32>, p: f32) -> vec3<f32> {
+    return cross * (p * (1.0 / 6.0));
+}

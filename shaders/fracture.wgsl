@@ -1,4 +1,4 @@
-// Fracture candidates: twin of the trigger scan in `fissure_core::fracture` (instant trigger). Each kernel appends
+// Fracture candidates: twin of the trigger scan in `fissure_core::fracture::trigger` (instant trigger). Each kernel appends
 // the springs stretched past their strain limit, or the vertices loaded past their load limit, to `candidates`
 // (a counter per kind, then the ids; the counter keeps counting past the capacity). The CPU reads the counters
 // after a submission and, when either is non-zero, reads the state back and runs the fracture pass, which makes
@@ -40,19 +40,15 @@ fn load_check(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgr
         let e = adj[row.x + k];
         let s = springs[e >> 1u];
         let ends = spring_ends[e >> 1u];
-        let d = q_src[ends.y].xyz - q_src[ends.x].xyz;
-        let l = length(d);
-        if (l > 0.0 && s.ks != 0.0) {
-            let sf = d * (s.ks * (l - s.rest) / l);
-            f += select(-sf, sf, (e & 1u) == 0u);
-        }
+        let sf = spring_elastic_force(s, q_src[ends.y].xyz - q_src[ends.x].xyz);
+        f += select(-sf, sf, (e & 1u) == 0u);
     }
     if (params.counts2.y != 0u) {
         for (var k = 0u; k < row.w; k++) {
             let t = adj[row.z + k];
             let b = tris[t].w;
             if (bodies[b].gas_slot != NONE) {
-                f += tri_cross[t].xyz * (body_state[b].y / 6.0);
+                f += pressure_corner_force(tri_cross[t].xyz, body_state[b].y);
             }
         }
     }

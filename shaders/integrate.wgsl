@@ -1,19 +1,8 @@
 // Per-particle force gather and the integrators. Twin of `fissure_core::forces::particle_force` and the CPU
 // solver's update loops: gravity, then the particle's springs in CSR order (each spring computed by both its ends;
 // WGSL has no float atomics and recomputing is cheaper than a second pass), then its triangles' corner forces
-// (pressure + wind, when the model has either), then the pressure through the caps over openings.
-
-fn spring_force(s: Spring, d: vec3<f32>, dv: vec3<f32>) -> vec3<f32> {
-    let l2 = dot(d, d);
-    let l = sqrt(l2);
-    // Coincident ends have no direction and no elastic force.
-    let inv = select(0.0, 1.0 / l, l2 > 0.0);
-    let u = d * inv;
-    if (params.gravity.w != 0.0) {
-        return u * (s.ks * (l - s.rest) + s.kd * dot(dv, u));
-    }
-    return u * (s.ks * (l - s.rest)) + dv * s.kd;
-}
+// (pressure + wind, when the model has either), then the pressure through the caps over openings. The spring
+// force itself is `spring_force` in common.wgsl (twin of `fissure_core::forces::spring::force_components`).
 
 // Gradient share of a cap edge `i -> j` about the cap's centre `c` (each end gets it).
 fn cap_edge(xi: vec3<f32>, xj: vec3<f32>, c: vec3<f32>) -> vec3<f32> {

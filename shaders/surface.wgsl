@@ -1,6 +1,7 @@
 // The surface pass: triangle crosses, gas-body volumes (a two-pass workgroup reduction), pressures, and the
 // per-corner force of each triangle (the seed's eq. (9) pressure force plus wind drag and lift).
-// Twin of `ForceScratch::surface` in fissure-core. Encoded only when the model has gas or wind.
+// Twin of `ForceScratch::surface` in `fissure_core::forces` (the formulas: `forces::pressure::{gas_pressure,
+// corner_force}`, `forces::wind::aero_force`). Encoded only when the model has gas or wind.
 
 const TAU: f32 = 6.283185307179586;
 
@@ -131,7 +132,7 @@ fn surface_volume(@builtin(local_invocation_index) li: u32, @builtin(workgroup_i
         }
         let v = vol6 * (1.0 / 6.0);
         let body = bodies[b];
-        let p = body.gas / max(v, body.rest_volume * 1e-3) - body.p_ext;
+        let p = gas_pressure(body.gas, v, body.rest_volume, body.p_ext);
         body_state[b] = vec4<f32>(v, p, 0.0, 0.0);
     }
 }
@@ -184,7 +185,7 @@ fn surface_force(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_wor
     let body = bodies[tri.w];
     let c = tri_cross[t].xyz;
     let p = select(0.0, body_state[tri.w].y, body.gas_slot != NONE);
-    var f = c * (p * (1.0 / 6.0));
+    var f = pressure_corner_force(c, p);
     let rho = params.wind_u.w;
     if (rho > 0.0 && (body.drag != 0.0 || body.lift != 0.0)) {
         let third = 1.0 / 3.0;

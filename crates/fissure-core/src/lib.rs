@@ -7,8 +7,9 @@
 pub mod collision;
 pub mod csr;
 pub mod error;
-mod forces;
+pub mod forces;
 pub mod fracture;
+pub mod integrator;
 pub mod mesh;
 pub mod model;
 mod par;
@@ -17,7 +18,7 @@ pub mod solver;
 pub mod stability;
 pub mod timers;
 pub mod topology;
-pub mod wind;
+pub use forces::wind;
 
 pub use collision::Collider;
 pub use error::{MeshError, ModelError, StepError};

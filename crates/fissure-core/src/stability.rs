@@ -19,9 +19,9 @@
 //! collisions are not counted. Gershgorin overestimates `ω_max` for a regular grid, so measured limits lie at or
 //! above the bound (the harness's stability section plots both).
 
+use crate::integrator::Integrator;
 use crate::model::Model;
 use crate::real::Real;
-use crate::solver::Integrator;
 
 /// Gershgorin bounds on a model's fastest mode, and the step sizes they allow.
 #[derive(Clone, Copy, Debug, PartialEq)]

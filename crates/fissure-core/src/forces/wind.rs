@@ -12,6 +12,7 @@
 //!
 //! split equally over the three corners. Both vanish on a sheet moving with the air.
 
+use crate::real::{Real, Vector3};
 use glam::DVec3;
 
 /// A spatially and temporally varying wind. Units: m/s, Hz, m, kg/m^3.
@@ -93,4 +94,26 @@ impl Aero {
     pub fn is_active(&self) -> bool {
         self.drag != 0.0 || self.lift != 0.0
     }
+}
+
+/// Drag and lift on a triangle with cross vector `c = 2 A n̂`, in relative air velocity `v` (see the module docs).
+///
+/// GPU twin: `aero_force` in `shaders/surface.wgsl` (used by `tri_forces`).
+#[inline]
+pub(crate) fn aero_force<R: Real>(c: R::V, v: R::V, cd: R, cl: R, rho_half: R) -> R::V {
+    let c_len = c.length();
+    let speed = v.length();
+    if c_len <= R::ZERO || speed <= R::ZERO {
+        return R::V::ZERO;
+    }
+    let area = c_len * R::from_f64(0.5);
+    let mut n = c / c_len;
+    let mut vn = n.dot(v);
+    if vn < R::ZERO {
+        n = -n;
+        vn = -vn;
+    }
+    let drag = v * (rho_half * cd * area * vn);
+    let lift = (n * speed - v * (vn / speed)) * (rho_half * cl * area * vn);
+    drag + lift
 }

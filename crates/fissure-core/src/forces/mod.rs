@@ -1,0 +1,182 @@
+//! The force terms, one module per equation: [`spring`] (seed eqs. 1–2), [`pressure`] (eqs. 6–9) and [`wind`]
+//! (drag and lift), plus gravity. Each term is a flat pass over springs or triangles writing one value per
+//! element; then a per-particle gather over the CSR lists sums them ([`particle_force`]). No locks, no atomics,
+//! one summation order: bit-identical results on any number of threads.
+//!
+//! The surface pass fuses the two triangle terms: one sweep takes each triangle's cross vector, the bodies'
+//! volumes, and then each corner's share of the pressure and wind forces.
+
+pub mod pressure;
+pub mod spring;
+pub mod wind;
+
+use crate::model::Model;
+use crate::par;
+use crate::real::{Real, Vector3};
+use wind::aero_force;
+
+/// Reusable buffers of the force passes (allocated once per model size, never per step).
+#[derive(Clone, Debug, Default)]
+pub(crate) struct ForceScratch<R: Real> {
+    /// Force on spring end 0 (end 1 gets the negative) [N] (irregular meshes).
+    pub spring_f: Vec<R::V>,
+    /// Sum of spring forces on each particle [N] (models made of spring runs).
+    pub particle_spring: Vec<R::V>,
+    /// Whether the run kernel is used (`particle_spring` holds the sums) or the gather (`spring_f`).
+    pub runs: bool,
+    /// `(x1 - x0) × (x2 - x0)` of each triangle [m^2].
+    pub tri_cross: Vec<R::V>,
+    /// Force on each corner of each triangle (pressure + wind share) [N].
+    pub tri_f: Vec<R::V>,
+    /// Per-chunk, per-body partial sums of `6 V`.
+    pub vol_partials: Vec<R>,
+    /// Volume of each body [m^3].
+    pub body_volume: Vec<R>,
+    /// Net pressure of each body [Pa].
+    pub body_pressure: Vec<R>,
+    /// `∂V/∂x` of the caps over the openings of gas bodies, per particle (empty without such openings) [m^2].
+    pub cap_g: Vec<R::V>,
+    /// Pressure force through the caps, per particle [N].
+    pub cap_f: Vec<R::V>,
+    /// Particles with a nonzero entry in `cap_g` / `cap_f`.
+    pub cap_touched: Vec<u32>,
+}
+
+impl<R: Real> ForceScratch<R> {
+    /// Sizes the buffers for `m`. `spring_buffer`: the per-spring buffer is needed even with the run kernel
+    /// (the implicit solver reuses it for its matrix products).
+    pub fn resize(&mut self, m: &Model<R>, spring_buffer: bool) {
+        self.runs = m.springs_are_runs();
+        let ns = if spring_buffer || !self.runs { m.spring_count() } else { 0 };
+        self.spring_f.resize(ns, R::V::ZERO);
+        self.particle_spring.resize(if self.runs { m.particle_count() } else { 0 }, R::V::ZERO);
+        let surface = m.has_pressure() || m.has_wind();
+        let nt = if surface { m.tri_count() } else { 0 };
+        self.tri_cross.resize(nt, R::V::ZERO);
+        self.tri_f.resize(nt, R::V::ZERO);
+        self.body_volume.resize(m.body_count(), R::ZERO);
+        self.body_pressure.resize(m.body_count(), R::ZERO);
+        self.vol_partials.resize(nt.div_ceil(par::CHUNK).max(1) * m.body_count(), R::ZERO);
+        let caps = m.has_pressure() && m.openings.iter().any(|o| m.body_gas_amount[o.body as usize] > R::ZERO);
+        let nc = if caps { m.particle_count() } else { 0 };
+        // Entries from an earlier model may be stale: clear what was written, then size.
+        for &i in &self.cap_touched {
+            if let (Some(g), Some(f)) = (self.cap_g.get_mut(i as usize), self.cap_f.get_mut(i as usize)) {
+                *g = R::V::ZERO;
+                *f = R::V::ZERO;
+            }
+        }
+        self.cap_touched.clear();
+        self.cap_g.resize(nc, R::V::ZERO);
+        self.cap_f.resize(nc, R::V::ZERO);
+    }
+
+    /// Triangle pass: crosses, body volumes and pressures (if any gas), wind (if any), into `tri_f`.
+    pub fn surface(&mut self, m: &Model<R>, q: &[R::V], qd: &[R::V], time: f64) {
+        let nb = m.body_count();
+        let pressure = m.has_pressure();
+        // Pass A: crosses and per-chunk volume partials.
+        let partial_rows = m.tri_count().div_ceil(par::CHUNK).max(1);
+        let vp = &mut self.vol_partials[..partial_rows * nb];
+        let body_anchor_q: &[u32] = &m.body_anchor;
+        let cross_chunk = |start: usize, cross: &mut [R::V], part: &mut [R]| {
+            part.iter_mut().for_each(|p| *p = R::ZERO);
+            for (k, c) in cross.iter_mut().enumerate() {
+                let t = start + k;
+                let [a, b, d] = m.tri_indices[t];
+                let (x0, x1, x2) = (q[a as usize], q[b as usize], q[d as usize]);
+                *c = (x1 - x0).cross(x2 - x0);
+                if pressure {
+                    let body = m.tri_body[t] as usize;
+                    if m.body_gas_amount[body] > R::ZERO {
+                        let anchor = q[body_anchor_q[body] as usize];
+                        part[body] += (x0 - anchor).dot(*c);
+                    }
+                }
+            }
+        };
+        if m.tri_count() < par::PAR_MIN {
+            for (c, (cross, part)) in self.tri_cross.chunks_mut(par::CHUNK).zip(vp.chunks_mut(nb)).enumerate() {
+                cross_chunk(c * par::CHUNK, cross, part);
+            }
+        } else {
+            use rayon::prelude::*;
+            self.tri_cross
+                .par_chunks_mut(par::CHUNK)
+                .zip(vp.par_chunks_mut(nb))
+                .enumerate()
+                .for_each(|(c, (cross, part))| cross_chunk(c * par::CHUNK, cross, part));
+        }
+        let sixth = R::from_f64(1.0 / 6.0);
+        for b in 0..nb {
+            self.body_volume[b] = (0..partial_rows).fold(R::ZERO, |acc, r| acc + vp[r * nb + b]);
+        }
+        if !self.cap_g.is_empty() {
+            let mut vol6 = std::mem::take(&mut self.body_volume);
+            self.caps(m, q, &mut vol6);
+            self.body_volume = vol6;
+        }
+        for b in 0..nb {
+            let v = self.body_volume[b] * sixth;
+            self.body_volume[b] = v;
+            self.body_pressure[b] =
+                pressure::gas_pressure(m.body_gas_amount[b], v, m.body_rest_volume[b], m.body_pressure_external[b]);
+        }
+        for &i in &self.cap_touched {
+            let i = i as usize;
+            self.cap_f[i] = self.cap_g[i] * self.body_pressure[m.particle_body[i] as usize];
+        }
+        // Pass B: per-corner force of each triangle.
+        let wind = if m.has_wind() { m.wind.as_ref() } else { None };
+        let rho_half = R::from_f64(0.5 * wind.map_or(0.0, |w| w.air_density));
+        let third = R::from_f64(1.0 / 3.0);
+        let body_pressure = &self.body_pressure;
+        let tri_cross = &self.tri_cross;
+        par::chunks(&mut self.tri_f, |start, out| {
+            for (k, f) in out.iter_mut().enumerate() {
+                let t = start + k;
+                let body = m.tri_body[t] as usize;
+                let c = tri_cross[t];
+                let mut force = pressure::corner_force(c, body_pressure[body]);
+                if let Some(w) = wind {
+                    let (cd, cl) = (m.body_drag[body], m.body_lift[body]);
+                    if cd != R::ZERO || cl != R::ZERO {
+                        let [a, b, d] = m.tri_indices[t];
+                        let centroid = (q[a as usize] + q[b as usize] + q[d as usize]) * third;
+                        let vel = (qd[a as usize] + qd[b as usize] + qd[d as usize]) * third;
+                        let air = R::V::from_dvec3(w.sample(centroid.to_dvec3(), time));
+                        force += aero_force(c, air - vel, cd, cl, rho_half) * third;
+                    }
+                }
+                *f = force;
+            }
+        });
+    }
+}
+
+/// Net force on particle `i` [N]: gravity, then its springs and triangles in CSR order.
+#[inline(always)]
+pub(crate) fn particle_force<R: Real>(m: &Model<R>, s: &ForceScratch<R>, surface: bool, i: usize) -> R::V {
+    let mut f = m.gravity * m.particle_mass[i];
+    if s.runs {
+        f += s.particle_spring[i];
+    } else {
+        for &e in m.particle_springs.row(i) {
+            let v = s.spring_f[(e >> 1) as usize];
+            if e & 1 == 0 {
+                f += v;
+            } else {
+                f -= v;
+            }
+        }
+    }
+    if surface {
+        for &t in m.particle_tris.row(i) {
+            f += s.tri_f[t as usize];
+        }
+        if !s.cap_f.is_empty() {
+            f += s.cap_f[i];
+        }
+    }
+    f
+}

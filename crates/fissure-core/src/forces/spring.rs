@@ -1,0 +1,254 @@
+//! Springs: the seed's eqs. (1)–(2), Hooke's law along each edge of the mesh with damping, and the kernels that
+//! evaluate them: per spring for irregular meshes ([`ForceScratch::springs`] → `spring_f`, gathered per particle),
+//! and per block of particles over spring runs (cloth grids: contiguous slices, vectorised, AVX2 when present).
+//!
+//! One formula, [`force_components`], serves every caller: both kernels, the fracture load
+//! ([`elastic_force`]), the implicit solver's Jacobian ([`implicit_coefficients`]) and the energy ([`potential`]).
+
+use super::ForceScratch;
+use crate::model::{DampingModel, Model};
+use crate::par;
+use crate::real::{Real, Vector3};
+
+impl<R: Real> ForceScratch<R> {
+    /// Spring forces: per particle into `particle_spring` (runs), else per spring into `spring_f`.
+    pub fn springs(&mut self, m: &Model<R>, q: &[R::V], qd: &[R::V]) {
+        match (self.runs, m.damping_model) {
+            (true, DampingModel::Projected) => run_pass::<R, true>(m, q, qd, &mut self.particle_spring),
+            (true, DampingModel::Unprojected) => run_pass::<R, false>(m, q, qd, &mut self.particle_spring),
+            (false, DampingModel::Projected) => spring_pass::<R, true>(m, q, qd, &mut self.spring_f),
+            (false, DampingModel::Unprojected) => spring_pass::<R, false>(m, q, qd, &mut self.spring_f),
+        }
+    }
+}
+
+/// The seed's eqs. (1)–(2) for one spring, on its end 0 (end 1 gets the negative), per component:
+/// `F = ks (l - L0) d̂ + kd ((vj - vi)·d̂) d̂` (projected damping, the default) or `F = ks (l - L0) d̂ + kd (vj - vi)`
+/// (the paper's unprojected form), with `d = xj - xi`, `l = |d|`, `d̂ = d / l`. Coincident ends have no
+/// direction and no elastic force. Branch-free, so the span loops of the run kernel vectorise; every caller (the
+/// per-spring and run kernels, the fracture load, diagnostics) goes through this one function.
+///
+/// GPU twin: `spring_force` in `shaders/common.wgsl` (used by `spring_forces` and `particle_forces` in
+/// `shaders/integrate.wgsl`).
+#[inline(always)]
+pub fn force_components<R: Real, const PROJECTED: bool>(d: [R; 3], w: [R; 3], rest: R, ks: R, kd: R) -> [R; 3] {
+    let l2 = d[0] * d[0] + d[1] * d[1] + d[2] * d[2];
+    let l = l2.sqrt();
+    let inv = if l2 > R::ZERO { R::ONE / l } else { R::ZERO };
+    let u = [d[0] * inv, d[1] * inv, d[2] * inv];
+    if PROJECTED {
+        let mag = ks * (l - rest) + kd * (w[0] * u[0] + w[1] * u[1] + w[2] * u[2]);
+        [u[0] * mag, u[1] * mag, u[2] * mag]
+    } else {
+        let mag = ks * (l - rest);
+        [u[0] * mag + w[0] * kd, u[1] * mag + w[1] * kd, u[2] * mag + w[2] * kd]
+    }
+}
+
+/// [`force_components`] on vectors: the force on end 0 of a spring with `d = xj - xi`, `dv = vj - vi` [N].
+#[inline(always)]
+pub fn force<R: Real, const PROJECTED: bool>(d: R::V, dv: R::V, rest: R, ks: R, kd: R) -> R::V {
+    let [x, y, z] = force_components::<R, PROJECTED>(d.to_array(), dv.to_array(), rest, ks, kd);
+    R::V::new(x, y, z)
+}
+
+/// The elastic part alone, `ks (l - L0) d̂` [N] (the fracture load: the spring's pull on its end 0).
+#[inline]
+pub fn elastic_force<R: Real>(d: R::V, rest: R, ks: R) -> R::V {
+    force::<R, true>(d, R::V::ZERO, rest, ks, R::ZERO)
+}
+
+/// Strain `(l - L0) / L0` of a spring of length `l` [m] and rest length `rest` [m].
+#[inline]
+pub fn strain<R: Real>(l: R, rest: R) -> R {
+    (l - rest) / rest
+}
+
+/// Elastic energy `½ ks (l - L0)²` [J].
+#[inline]
+pub fn potential(l: f64, rest: f64, ks: f64) -> f64 {
+    let d = l - rest;
+    0.5 * ks * d * d
+}
+
+/// The spring's linearisation for implicit Euler (Baraff & Witkin 1998), scaled for the system
+/// `(M + h C + h² K) Δv`: returns the unit direction `d̂` and `[iso, axial, damp_iso, damp_axial]`, the coefficients
+/// of `I` and `d̂ d̂ᵀ` in `h² K + h C` (the stiffness block, then with damping). `K = ks (d̂ d̂ᵀ + (1 - L0/l)(I - d̂ d̂ᵀ))`,
+/// exact when stretched; the transverse term is clamped at 0 when compressed (it is negative there and would make
+/// the system indefinite; Choi & Ko 2002). `C = kd d̂ d̂ᵀ` (projected) or `kd I` (unprojected).
+#[inline]
+pub(crate) fn implicit_coefficients<R: Real>(d: R::V, rest: R, ks: R, kd: R, h: R, projected: bool) -> (R::V, [R; 4]) {
+    let h2 = h * h;
+    let l = d.length();
+    if l > R::ZERO {
+        let iso = h2 * ks * (R::ONE - rest / l).max(R::ZERO);
+        let axial = h2 * ks;
+        let hd = h * kd;
+        (d * (R::ONE / l), if projected { [iso, axial, iso, axial + hd] } else { [iso, axial, iso + hd, axial + hd] })
+    } else {
+        let hd = if projected { R::ZERO } else { h * kd };
+        (R::V::ZERO, [R::ZERO, R::ZERO, hd, hd])
+    }
+}
+
+fn spring_pass<R: Real, const PROJECTED: bool>(m: &Model<R>, q: &[R::V], qd: &[R::V], out: &mut [R::V]) {
+    let n = out.len();
+    let (idx, rest, ks, kd) =
+        (&m.spring_indices[..n], &m.spring_rest_length[..n], &m.spring_stiffness[..n], &m.spring_damping[..n]);
+    par::chunks(out, |start, chunk| {
+        let end = start + chunk.len();
+        let (idx, rest, ks, kd) = (&idx[start..end], &rest[start..end], &ks[start..end], &kd[start..end]);
+        for (k, f) in chunk.iter_mut().enumerate() {
+            let [i, j] = idx[k];
+            let (i, j) = (i as usize, j as usize);
+            *f = force::<R, PROJECTED>(q[j] - q[i], qd[j] - qd[i], rest[k], ks[k], kd[k]);
+        }
+    });
+}
+
+/// Springs computed per span of a run at a time.
+const SPAN: usize = 64;
+
+/// Per-component stack arrays of [`span_forces`], created once per block and reused by every span.
+struct SpanScratch<R: Real> {
+    d: [[R; SPAN]; 3],
+    w: [[R; SPAN]; 3],
+    p: [[R; SPAN]; 3],
+    f: [[R; SPAN]; 3],
+}
+
+impl<R: Real> SpanScratch<R> {
+    fn new() -> Self {
+        let z = [[R::ZERO; SPAN]; 3];
+        SpanScratch { d: z, w: z, p: z, f: z }
+    }
+}
+
+/// Forces of a span of springs with contiguous ends. The positions arrive as 3-vectors (array of structs), which
+/// no compiler vectorises well; they are transposed into per-component arrays, the maths runs on those (plain
+/// loops over `[R; SPAN]` that LLVM turns into packed code, square roots and divisions included), and the
+/// result is transposed back. Lanes past `out.len()` hold stale values from an earlier span: computed, never
+/// used. The maths is [`force_components`], lane by lane.
+#[allow(clippy::too_many_arguments)]
+#[inline(always)]
+fn span_forces<R: Real, const PROJECTED: bool>(
+    t: &mut SpanScratch<R>,
+    qi: &[R::V],
+    qj: &[R::V],
+    vi: &[R::V],
+    vj: &[R::V],
+    rest: &[R],
+    ks: &[R],
+    kd: &[R],
+    out: &mut [R::V],
+) {
+    let n = out.len();
+    let (qi, qj, vi, vj, rest, ks, kd) = (&qi[..n], &qj[..n], &vi[..n], &vj[..n], &rest[..n], &ks[..n], &kd[..n]);
+    for k in 0..n {
+        let [a, b, c] = (qj[k] - qi[k]).to_array();
+        let [e, f, g] = (vj[k] - vi[k]).to_array();
+        (t.d[0][k], t.d[1][k], t.d[2][k]) = (a, b, c);
+        (t.w[0][k], t.w[1][k], t.w[2][k]) = (e, f, g);
+        (t.p[0][k], t.p[1][k], t.p[2][k]) = (rest[k], ks[k], kd[k]);
+    }
+    let ([dx, dy, dz], [wx, wy, wz], [r, s, d]) = (&t.d, &t.w, &t.p);
+    let [fx, fy, fz] = &mut t.f;
+    for k in 0..SPAN {
+        [fx[k], fy[k], fz[k]] =
+            force_components::<R, PROJECTED>([dx[k], dy[k], dz[k]], [wx[k], wy[k], wz[k]], r[k], s[k], d[k]);
+    }
+    for k in 0..n {
+        out[k] = R::V::new(fx[k], fy[k], fz[k]);
+    }
+}
+
+/// Spring forces summed per particle, for models made of [`crate::model::SpringRun`]s. Each fixed block of
+/// particles walks every run, computes the springs with an end in the block on contiguous slices (a span of up to
+/// 64 at a time, vectorised), and adds them to the block's particles: `+f` on end 0, `-f` on end 1. A spring
+/// with its ends in two blocks is computed by both. The order of additions per particle is fixed by the run order
+/// and the fixed block size, never by the thread count.
+fn run_pass<R: Real, const PROJECTED: bool>(m: &Model<R>, q: &[R::V], qd: &[R::V], out: &mut [R::V]) {
+    par::chunks(out, |p0, block| run_block_dispatch::<R, PROJECTED>(m, q, qd, p0, block));
+}
+
+/// [`run_block`] compiled for AVX2 when the CPU has it (detected once, cached by std), else for the baseline.
+/// Packed square roots and divisions are correctly rounded like the scalar ones and Rust never fuses
+/// multiply-adds on its own, so both versions give the same bits.
+#[inline]
+pub(crate) fn run_block_dispatch<R: Real, const PROJECTED: bool>(
+    m: &Model<R>,
+    q: &[R::V],
+    qd: &[R::V],
+    p0: usize,
+    block: &mut [R::V],
+) {
+    #[cfg(target_arch = "x86_64")]
+    {
+        if std::arch::is_x86_feature_detected!("avx2") {
+            // SAFETY: the CPU supports AVX2, checked just above.
+            unsafe { run_block_avx2::<R, PROJECTED>(m, q, qd, p0, block) };
+            return;
+        }
+    }
+    run_block::<R, PROJECTED>(m, q, qd, p0, block)
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+fn run_block_avx2<R: Real, const PROJECTED: bool>(
+    m: &Model<R>,
+    q: &[R::V],
+    qd: &[R::V],
+    p0: usize,
+    block: &mut [R::V],
+) {
+    run_block::<R, PROJECTED>(m, q, qd, p0, block)
+}
+
+/// Spring-force sums of particles `p0 .. p0 + block.len()` into `block`.
+#[inline(always)]
+fn run_block<R: Real, const PROJECTED: bool>(m: &Model<R>, q: &[R::V], qd: &[R::V], p0: usize, block: &mut [R::V]) {
+    let (rest, ks, kd) = (&m.spring_rest_length[..], &m.spring_stiffness[..], &m.spring_damping[..]);
+    let p1 = p0 + block.len();
+    block.iter_mut().for_each(|f| *f = R::V::ZERO);
+    let mut buf = [R::V::ZERO; SPAN];
+    let mut scratch = SpanScratch::<R>::new();
+    for r in &m.spring_runs {
+        let (i0, j0, len, s0) = (r.i as usize, r.j as usize, r.len as usize, r.first as usize);
+        // Spring indices k of this run with end 0 (a) or end 1 (b) in the block.
+        let (a0, a1) = (p0.saturating_sub(i0).min(len), p1.saturating_sub(i0).min(len));
+        let (b0, b1) = (p0.saturating_sub(j0).min(len), p1.saturating_sub(j0).min(len));
+        let ranges: [(usize, usize); 2] = if a0 < a1 && b0 < b1 && a0.max(b0) <= a1.min(b1) {
+            [(a0.min(b0), a1.max(b1)), (0, 0)]
+        } else {
+            [(a0, a1), (b0, b1)]
+        };
+        for (lo, hi) in ranges {
+            let mut k0 = lo;
+            while k0 < hi {
+                let k1 = (k0 + SPAN).min(hi);
+                let n = k1 - k0;
+                let (qi, qj) = (&q[i0 + k0..i0 + k1], &q[j0 + k0..j0 + k1]);
+                let (vi, vj) = (&qd[i0 + k0..i0 + k1], &qd[j0 + k0..j0 + k1]);
+                let (rs, kss, kds) = (&rest[s0 + k0..s0 + k1], &ks[s0 + k0..s0 + k1], &kd[s0 + k0..s0 + k1]);
+                span_forces::<R, PROJECTED>(&mut scratch, qi, qj, vi, vj, rs, kss, kds, &mut buf[..n]);
+                // End 0 of springs k in [max(k0, a0), min(k1, a1)) lies in the block: add.
+                let (c0, c1) = (k0.max(a0), k1.min(a1));
+                if c0 < c1 {
+                    let dst = &mut block[i0 + c0 - p0..i0 + c1 - p0];
+                    for (d, f) in dst.iter_mut().zip(&buf[c0 - k0..c1 - k0]) {
+                        *d += *f;
+                    }
+                }
+                let (c0, c1) = (k0.max(b0), k1.min(b1));
+                if c0 < c1 {
+                    let dst = &mut block[j0 + c0 - p0..j0 + c1 - p0];
+                    for (d, f) in dst.iter_mut().zip(&buf[c0 - k0..c1 - k0]) {
+                        *d -= *f;
+                    }
+                }
+                k0 = k1;
+            }
+        }
+    }
+}

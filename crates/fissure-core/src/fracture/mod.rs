@@ -1,0 +1,410 @@
+//! Multiple local fractures by virtual nodes (the seed's section 3, after Molino, Bao & Fedkiw 2004).
+//!
+//! [`Fracture::apply`] runs between steps: it checks every breakable spring and vertex, picks the ones past their
+//! limits (at most [`FractureConfig::max_events_per_step`], the worst first, ties by index: a deterministic
+//! order), splits them one after another on the live topology, and reports each split as a [`FractureEvent`].
+//!
+//! **Spring mode** (seed Fig. 2). A spring `a–b` stretched past its strain limit breaks. Two virtual nodes are
+//! made on the segment: `n_a`, the part of the material on `a`'s side, and `n_b` on `b`'s side. Each takes a
+//! share of its parent's mass (the share the new triangles' lumped areas give it) and its parent's velocity,
+//! so mass is conserved exactly and momentum to rounding. Each triangle `(a, b, c)` on the edge is cut from the
+//! edge towards `c` into `(a, n_a, c)` and `(n_b, b, c)`; the old spring goes, and springs follow the new edges
+//! (`a–n_a`, `b–n_b` with half the rest length, `n_a–c`, `n_b–c` with the rest triangle's median). The crack is
+//! the slit `c–n_a–d | c–n_b–d` across the broken spring, opening as its two sides move apart: a crack runs
+//! across the direction of the tension that made it. The halves of the broken spring snap back to their rest
+//! length at once (the nodes are placed `L0/2` from their parents), so the broken spring's elastic energy is
+//! released by the fracture instead of re-breaking its halves on the next step.
+//!
+//! **Core mode** (seed Fig. 3). A vertex `v` whose *load* passes its limit breaks out. Load is the magnitude of
+//! the net elastic force (springs and gas) on the vertex, in newtons: in a uniformly stretched or inflated
+//! membrane it is near zero however high the tension (the vertex is pulled equally from all sides — tearing under
+//! tension is the spring mode's job), and it is large exactly where the body is pressed or pulled locally, at a
+//! contact with an obstacle or a sharp dent: where a chunk is punched out. `v` splits into one copy per incident
+//! triangle on each side of the break: `c_i` (the core) and `d_i` (the surface), placed halfway from `v` towards
+//! the far edge of triangle `i`. The core block is `v` with the fan `(v, c_{i-1}, c_i)` and the ring of springs
+//! `c_{i-1}–c_i`; it becomes its own body and breaks away. The surface keeps each triangle as `(d_i, p_i,
+//! p_{i+1})` plus `(p_i, d_i, d_{i-1})` between neighbours: a valid surface with a hole where the core was. The
+//! copies share `v`'s mass equally (exactly) and take its velocity. Rest lengths of all new springs come from the
+//! rest shape (the one-ring unfolded flat from the springs' rest lengths).
+//!
+//! **Separation.** After a split, a vertex whose triangles no longer form one fan (a crack reached it from two
+//! sides) is duplicated, one copy per fan, its mass shared exactly; its springs go to the copy whose fan holds
+//! the other end (others to the nearest fan). If the copies are no longer joined by any chain of springs, the
+//! smaller side becomes its own body (a [`FractureKind::Detach`] event): found by a breadth-first search from
+//! both copies at once that stops when either side is exhausted (the piece) or they meet, so its cost follows
+//! the smaller piece, not the mesh.
+//!
+//! **Openings and gas.** The boundary loops of a gas body are its openings ([`crate::model::Opening`]); the
+//! body's volume is taken with a virtual cap over each (and the gas pushes on the caps, so the pressure force
+//! stays conservative and sums to zero). Unless the body is sealed, gas leaks out through the openings by the
+//! orifice equation (after Mesit & Guha 2008, the seed's ref. [6]): the volume flow is
+//! `Q = C_d A sqrt(2 ΔP / ρ)` with `A` the openings' area and `ΔP = nRT/V - P_ext`; gas leaving at the inside
+//! pressure carries `nRT` away at `d(nRT)/dt = -(nRT / V) Q`, integrated exactly over a step as
+//! `nRT <- nRT exp(-Q dt / V)`. No inflow is modelled.
+//!
+//! **Cost.** A split edits the arrays of the triangles, springs and particles it touches and the adjacency rows
+//! of their particles ([`crate::csr::Csr`] rows with slack), and appends new items: its cost follows the size of
+//! the change, not of the mesh. Broken springs keep their slot as [`SpringKind::Broken`] (zero stiffness, in no
+//! adjacency row), so spring indices and the cloth kernel's spring runs stay valid.
+//!
+//! Mass is shared out exactly in floating point: each share is rounded down to a multiple of the parent mass's
+//! unit in the last place, so `parent - n · share` and every sum involved are exact.
+
+use crate::model::{Model, Opening, SpringKind, State};
+use crate::real::{Real, Vector3};
+use crate::timers::{Stage, StageTimers};
+use glam::{DVec2, DVec3};
+use std::collections::BTreeSet;
+use std::time::Instant;
+
+mod core_mode;
+mod gas;
+mod separate;
+mod spring_mode;
+mod trigger;
+
+pub use crate::model::check_invariants;
+pub use crate::model::edit::{Fan, boundary_next, fans, spring_between};
+
+/// When a limit counts as passed.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Trigger {
+    /// The current strain (or load) passes the limit.
+    Instant,
+    /// The strain (or load) averaged over a window passes it: an exponential moving average with time constant
+    /// `window` [s] (after Bao, Hong, Teran & Fedkiw 2007). Raw thresholds fracture stiff materials arbitrarily,
+    /// on single-step spikes; the average needs a sustained overload.
+    Averaged {
+        /// Time constant [s].
+        window: f64,
+    },
+}
+
+/// Settings of the fracture pass.
+#[derive(Clone, Debug, PartialEq)]
+pub struct FractureConfig {
+    /// When a limit counts as passed. Default [`Trigger::Instant`].
+    pub trigger: Trigger,
+    /// Most splits per step (the worst first). Default 32.
+    pub max_events_per_step: usize,
+    /// Orifice discharge coefficient `C_d` of openings. Default 0.6 (a sharp-edged orifice).
+    pub discharge_coefficient: f64,
+    /// Density `ρ` of the gas [kg/m^3] in the orifice equation. Default 1.2 (air).
+    pub gas_density: f64,
+    /// Springs shorter than this at rest [m] do not split (a crack needs room). Default 1e-5.
+    pub min_rest_length: f64,
+    /// No split may leave a particle lighter than this fraction of the lightest breakable particle of the
+    /// model as first seen. Each split shares masses out, and a fragment that keeps breaking would otherwise
+    /// make ever lighter particles on the same springs (`ω = sqrt(k/m)` grows without bound) until the
+    /// integrator goes unstable. Default 1/16 (a 4× higher frequency at most).
+    pub min_mass_ratio: f64,
+    /// Simulated time [s] before which nothing breaks (the gas leak still runs). A pressurised body starts out of
+    /// equilibrium (its whole gas force unbalanced until the membrane stretches), and its load transient is not
+    /// a fracture; let it settle. Default 0.
+    pub start_time: f64,
+}
+
+impl Default for FractureConfig {
+    fn default() -> Self {
+        FractureConfig {
+            trigger: Trigger::Instant,
+            max_events_per_step: 32,
+            discharge_coefficient: 0.6,
+            gas_density: 1.2,
+            min_rest_length: 1e-5,
+            min_mass_ratio: 1.0 / 16.0,
+            start_time: 0.0,
+        }
+    }
+}
+
+/// What broke.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum FractureKind {
+    /// A spring broke (spring mode). Without triangles on it, it is simply removed.
+    Spring,
+    /// A vertex broke out as a core block (core mode).
+    Core,
+    /// A piece came off and became its own body.
+    Detach,
+}
+
+/// One fracture, as reported to the caller.
+#[derive(Clone, Debug, PartialEq)]
+pub struct FractureEvent {
+    /// What broke.
+    pub kind: FractureKind,
+    /// Simulation time [s].
+    pub time: f64,
+    /// Where [m]: the spring's midpoint, the core vertex, or the vertex where the piece came off.
+    pub position: DVec3,
+    /// The body it happened in.
+    pub body: u32,
+    /// The broken spring (spring mode).
+    pub spring: Option<u32>,
+    /// The core vertex (core mode) or the separated vertex (detach).
+    pub vertex: Option<u32>,
+    /// Particles created.
+    pub new_particles: Vec<u32>,
+    /// The body created (core block or detached piece).
+    pub new_body: Option<u32>,
+}
+
+impl FractureEvent {
+    /// A spring-mode event: spring `sp` of `body` broke at `position` (its virtual nodes, if any, in `new_particles`).
+    fn spring(time: f64, position: DVec3, body: u32, sp: u32, new_particles: Vec<u32>) -> Self {
+        FractureEvent {
+            kind: FractureKind::Spring,
+            time,
+            position,
+            body,
+            spring: Some(sp),
+            vertex: None,
+            new_particles,
+            new_body: None,
+        }
+    }
+}
+
+/// What a call of [`Fracture::apply`] changed, for solvers that mirror the model (a GPU re-uploads only this).
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct TopologyDelta {
+    /// Particles, springs, triangles and bodies before the call; items from these indices on are new.
+    pub old_counts: [usize; 4],
+    /// Existing particles whose mass, body or load limit changed.
+    pub particles: Vec<u32>,
+    /// Existing springs that broke or moved an end.
+    pub springs: Vec<u32>,
+    /// Existing triangles that were rewritten.
+    pub triangles: Vec<u32>,
+    /// Whether the openings changed.
+    pub openings: bool,
+}
+
+impl TopologyDelta {
+    /// True if nothing changed.
+    pub fn is_empty(&self) -> bool {
+        self.particles.is_empty() && self.springs.is_empty() && self.triangles.is_empty() && !self.openings
+    }
+}
+
+/// The fracture pass: its settings, the averaged triggers' history, scratch, and its timer.
+#[derive(Clone, Debug, Default)]
+pub struct Fracture<R: Real = f32> {
+    /// Settings.
+    pub config: FractureConfig,
+    spring_avg: Vec<R>,
+    particle_avg: Vec<R>,
+    candidates: Vec<(f64, u8, u32)>,
+    tri_force: Vec<DVec3>,
+    /// Body volumes of the current call (empty: not yet computed, or stale after a split).
+    volumes: Vec<f64>,
+    spring_force: Vec<DVec3>,
+    /// Per-particle stamp: `step_gen` if touched this step.
+    touched: Vec<u32>,
+    step_gen: u32,
+    touched_list: Vec<u32>,
+    /// BFS marks: `(gen << 2) | side`.
+    mark: Vec<u64>,
+    mark_gen: u64,
+    /// Boundary vertices of each gas body.
+    boundary: Vec<BTreeSet<u32>>,
+    /// The lightest particle a split may make [kg] (set on first use from `min_mass_ratio`).
+    mass_floor: Option<R>,
+    timers: StageTimers,
+    delta: TopologyDelta,
+}
+
+fn split_mass<R: Real>(m: R, frac: f64, n: usize) -> Option<(R, R)> {
+    // A share rounded down to a multiple of ulp(m): n shares and the remainder are then exact (all are integer
+    // multiples of ulp(m) not above m).
+    if !(m > R::ZERO && m.is_finite()) || frac * n as f64 > 1.0 {
+        return None;
+    }
+    let u = m.ulp();
+    let p = ((m * R::from_f64(frac)) / u).floor() * u;
+    if p <= R::ZERO {
+        return None;
+    }
+    Some((m - p * R::from_f64(n as f64), p))
+}
+
+fn inv<R: Real>(pinned: bool, m: R) -> R {
+    if pinned { R::ZERO } else { R::ONE / m }
+}
+
+impl<R: Real> Fracture<R> {
+    /// A pass with `config`.
+    pub fn new(config: FractureConfig) -> Self {
+        Fracture { config, ..Default::default() }
+    }
+
+    /// Time spent (stage `Fracture` only).
+    pub fn timers(&self) -> &StageTimers {
+        &self.timers
+    }
+
+    /// Clears the timer.
+    pub fn reset_timers(&mut self) {
+        self.timers.reset();
+    }
+
+    /// True if the pass has anything to do for `m`: something can break, or a gas body has an opening.
+    pub fn needed(&self, m: &Model<R>) -> bool {
+        m.has_fracture() || !m.openings.is_empty()
+    }
+
+    /// Checks every breakable spring and vertex after a step of `dt` [s], splits those past their limits, lets
+    /// gas leak through the openings, and returns the events (empty if nothing broke). When the model changed,
+    /// [`Fracture::last_delta`] says what, and the solver must be told (`Solver::notify_model_changed`).
+    pub fn apply(&mut self, m: &mut Model<R>, s: &mut State<R>, dt: f64) -> Vec<FractureEvent> {
+        let mut events = Vec::new();
+        self.begin(m);
+        self.volumes.clear();
+        if !self.needed(m) {
+            return events;
+        }
+        let t0 = Instant::now();
+        if m.has_fracture() && s.time >= self.config.start_time {
+            self.scan(m, s, dt);
+            let budget = self.config.max_events_per_step;
+            let cands = std::mem::take(&mut self.candidates);
+            let mut done = 0;
+            for &(_, kind, idx) in &cands {
+                if done >= budget {
+                    break;
+                }
+                let ok = if kind == 0 {
+                    self.split_spring(m, s, idx, &mut events)
+                } else {
+                    self.split_core(m, s, idx, &mut events)
+                };
+                done += ok as usize;
+            }
+            self.candidates = cands;
+            if !events.is_empty() {
+                self.volumes.clear();
+            }
+            self.finish(m);
+        }
+        self.leak(m, s, dt);
+        self.timers.add(Stage::Fracture, t0);
+        self.timers.steps += 1;
+        events
+    }
+
+    /// Breaks spring `sp` now (spring mode, or removal if it is on no triangle), whatever its strain: for
+    /// cutting tools and tests. Empty if it cannot break (already broken, shorter than the minimum).
+    pub fn break_spring(&mut self, m: &mut Model<R>, s: &mut State<R>, sp: usize) -> Vec<FractureEvent> {
+        self.break_now(m, s, sp, false)
+    }
+
+    /// Breaks particle `v` out as a core block now, whatever its load: a puncture. Empty if it cannot (pinned,
+    /// on or next to a boundary, valence outside 3..=64, a spoke that is not a spring).
+    pub fn break_core(&mut self, m: &mut Model<R>, s: &mut State<R>, v: usize) -> Vec<FractureEvent> {
+        self.break_now(m, s, v, true)
+    }
+
+    fn break_now(&mut self, m: &mut Model<R>, s: &mut State<R>, index: usize, core: bool) -> Vec<FractureEvent> {
+        self.begin(m);
+        let mut events = Vec::new();
+        if core && index < m.particle_count() {
+            self.split_core(m, s, index as u32, &mut events);
+        } else if !core && index < m.spring_count() {
+            self.split_spring(m, s, index as u32, &mut events);
+        }
+        self.finish(m);
+        events
+    }
+
+    /// Sizes the pass for `m` and fixes the mass floor (`min_mass_ratio` times the lightest particle with
+    /// triangles). Done on first use; call it ahead to keep that O(model) work out of the first split.
+    pub fn prepare(&mut self, m: &Model<R>) {
+        if self.mass_floor.is_none() {
+            let lightest = (0..m.particle_count())
+                .filter(|&i| !m.particle_tris.row(i).is_empty())
+                .map(|i| m.particle_mass[i])
+                .fold(R::infinity(), |a, b| a.min(b));
+            self.mass_floor = Some(lightest * R::from_f64(self.config.min_mass_ratio));
+        }
+        let n = m.particle_count();
+        if self.touched.len() < n {
+            self.touched.resize(n + n / 4, self.step_gen.wrapping_sub(1));
+        }
+        if self.mark.len() < n {
+            self.mark.resize(n + n / 4, 0);
+        }
+    }
+
+    fn begin(&mut self, m: &Model<R>) {
+        if self.mass_floor.is_none() {
+            self.prepare(m);
+        }
+        self.delta = TopologyDelta {
+            old_counts: [m.particle_count(), m.spring_count(), m.tri_count(), m.body_count()],
+            ..Default::default()
+        };
+        self.step_gen = self.step_gen.wrapping_add(1);
+        self.touched_list.clear();
+    }
+
+    fn finish(&mut self, m: &mut Model<R>) {
+        if self.touched_list.is_empty() {
+            return;
+        }
+        self.update_openings(m);
+        m.particle_springs.compact_if_sparse();
+        m.particle_tris.compact_if_sparse();
+        for list in [&mut self.delta.particles, &mut self.delta.springs, &mut self.delta.triangles] {
+            list.sort_unstable();
+            list.dedup();
+        }
+    }
+
+    /// What the last [`Fracture::apply`] changed.
+    pub fn last_delta(&self) -> &TopologyDelta {
+        &self.delta
+    }
+
+    fn heavy_enough(&self, mass: R) -> bool {
+        self.mass_floor.is_none_or(|f| mass >= f)
+    }
+
+    fn touch(&mut self, v: u32) {
+        let v = v as usize;
+        if self.touched.len() <= v {
+            self.touched.resize(v + 1, self.step_gen.wrapping_sub(1));
+        }
+        if self.touched[v] != self.step_gen {
+            self.touched[v] = self.step_gen;
+            self.touched_list.push(v as u32);
+        }
+    }
+
+    fn was_touched(&self, v: u32) -> bool {
+        self.touched.get(v as usize).is_some_and(|&g| g == self.step_gen)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::split_mass;
+
+    #[test]
+    fn mass_shares_are_exact() {
+        for &m in &[1.0f64, 0.1, 1.0 / 3.0, 7.3e-4, 123.456] {
+            for n in 1..9 {
+                let (rest, part) = split_mass(m, 1.0 / (n + 1) as f64, n).unwrap();
+                assert!(part > 0.0 && rest > 0.0);
+                let mut acc = rest;
+                for _ in 0..n {
+                    acc += part; // each partial sum is a multiple of ulp(m) not above m: exact
+                }
+                assert_eq!(acc, m);
+                assert!((part / (m / (n + 1) as f64) - 1.0).abs() < 1e-12);
+            }
+        }
+        let (rest, part) = split_mass(0.3f32, 0.25, 1).unwrap();
+        assert_eq!(rest + part, 0.3f32);
+    }
+}

@@ -1,0 +1,103 @@
+//! The trigger scan: which springs are past their strain limit and which vertices past their load limit,
+//! instantaneous or averaged over a window (Bao et al. 2007), worst first.
+
+use super::*;
+use crate::forces::{pressure, spring};
+
+impl<R: Real> Fracture<R> {
+    /// Candidates, sorted worst first: `(value / limit, 0 spring | 1 vertex, index)`.
+    pub(super) fn scan(&mut self, m: &Model<R>, s: &State<R>, dt: f64) {
+        self.candidates.clear();
+        let alpha = match self.config.trigger {
+            Trigger::Instant => 1.0,
+            Trigger::Averaged { window } => 1.0 - (-dt / window.max(1e-12)).exp(),
+        };
+        let q = &s.particle_q;
+        let ns = m.spring_count();
+        self.spring_avg.resize(ns, R::ZERO);
+        for sp in 0..ns {
+            let lim = m.spring_strain_limit[sp];
+            if !lim.is_finite() || m.spring_kind[sp] == SpringKind::Broken {
+                continue;
+            }
+            let [i, j] = m.spring_indices[sp];
+            let strain = spring::strain((q[j as usize] - q[i as usize]).length(), m.spring_rest_length[sp]);
+            let v = triggered(&mut self.spring_avg[sp], strain, alpha);
+            if v > lim {
+                self.candidates.push(((v / lim).to_f64(), 0, sp as u32));
+            }
+        }
+        let n = m.particle_count();
+        self.particle_avg.resize(n, R::ZERO);
+        if m.particle_load_limit.iter().any(|l| l.is_finite()) {
+            // The load: |net elastic force| on the particle, its springs' `ks (l - L0) d̂` and its share of the gas
+            // pressure. Each spring's and each triangle's term once, then per particle the sum over its rows.
+            self.spring_force.clear();
+            self.spring_force.extend(m.spring_indices.iter().enumerate().map(|(sp, &[i, j])| {
+                let d = q[j as usize].to_dvec3() - q[i as usize].to_dvec3();
+                spring::elastic_force::<f64>(d, m.spring_rest_length[sp].to_f64(), m.spring_stiffness[sp].to_f64())
+            }));
+            self.tri_force.clear();
+            if m.has_pressure() {
+                let pressures = self.pressures(m, s);
+                self.tri_force.extend(m.tri_indices.iter().zip(&m.tri_body).map(|(tri, &b)| {
+                    let p = pressures[b as usize];
+                    if p == 0.0 {
+                        return DVec3::ZERO;
+                    }
+                    let [a, b, c] = tri.map(|v| q[v as usize].to_dvec3());
+                    pressure::corner_force::<f64>((b - a).cross(c - a), p)
+                }));
+            }
+            for i in 0..n {
+                let lim = m.particle_load_limit[i];
+                if !lim.is_finite() || m.particle_inv_mass[i] == R::ZERO {
+                    continue;
+                }
+                let mut f = DVec3::ZERO;
+                for &e in m.particle_springs.row(i) {
+                    let v = self.spring_force[(e >> 1) as usize];
+                    if e & 1 == 0 {
+                        f += v;
+                    } else {
+                        f -= v;
+                    }
+                }
+                if !self.tri_force.is_empty() {
+                    for &t in m.particle_tris.row(i) {
+                        f += self.tri_force[t as usize];
+                    }
+                }
+                let v = triggered(&mut self.particle_avg[i], R::from_f64(f.length()), alpha);
+                if v > lim {
+                    self.candidates.push(((v / lim).to_f64(), 1, i as u32));
+                }
+            }
+        }
+        self.candidates.sort_by(|a, b| b.0.total_cmp(&a.0).then(a.1.cmp(&b.1)).then(a.2.cmp(&b.2)));
+    }
+
+    /// Net gas pressure of each body [Pa] (capped volumes, volumes computed at most once per call of
+    /// [`Fracture::apply`]).
+    pub(super) fn pressures(&mut self, m: &Model<R>, s: &State<R>) -> Vec<f64> {
+        if self.volumes.len() != m.body_count() {
+            self.volumes = m.body_volumes(s);
+        }
+        (0..m.body_count())
+            .map(|b| {
+                let (gas, v0, ext) = (m.body_gas_amount[b], m.body_rest_volume[b], m.body_pressure_external[b]);
+                pressure::gas_pressure(gas.to_f64(), self.volumes[b], v0.to_f64(), ext.to_f64())
+            })
+            .collect()
+    }
+}
+
+/// The trigger's value for a new sample `x`: `x` itself (instantaneous, `alpha = 1`), or the exponential moving
+/// average `avg` updated by `alpha`.
+fn triggered<R: Real>(avg: &mut R, x: R, alpha: f64) -> R {
+    if alpha >= 1.0 {
+        return x;
+    }
+    *avg += (x - *avg) * R::from_f64(alpha);
+    *avg
+}

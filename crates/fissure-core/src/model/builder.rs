@@ -1,0 +1,541 @@
+//! [`ModelBuilder`]: bodies, springs, colliders, gravity and wind accumulated in `f64`, then `finalize()`.
+
+use super::*;
+
+/// Accumulates bodies, colliders, gravity and wind in `f64`; [`ModelBuilder::finalize`] produces a [`Model`].
+#[derive(Clone, Debug)]
+pub struct ModelBuilder {
+    q: Vec<DVec3>,
+    qd: Vec<DVec3>,
+    mass: Vec<f64>,
+    pinned: Vec<bool>,
+    particle_body: Vec<u32>,
+    springs: Vec<([u32; 2], f64, f64, f64, SpringKind)>,
+    tris: Vec<[u32; 3]>,
+    tri_body: Vec<u32>,
+    bodies: Vec<BodyDesc>,
+    gravity: DVec3,
+    damping_model: DampingModel,
+    wind: Option<WindField>,
+    colliders: Vec<Collider>,
+}
+
+#[derive(Clone, Debug)]
+struct BodyDesc {
+    kind: BodyKind,
+    gas: f64,
+    external_pressure: f64,
+    rest_volume: f64,
+    aero: Aero,
+    anchor: u32,
+    fracture: Option<Breakable>,
+}
+
+impl Default for ModelBuilder {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+fn check_pos(name: &'static str, v: f64) -> Result<(), ModelError> {
+    if v.is_finite() && v > 0.0 {
+        Ok(())
+    } else {
+        Err(ModelError::Parameter { name, value: v, expected: "finite and > 0" })
+    }
+}
+
+fn check_nonneg(name: &'static str, v: f64) -> Result<(), ModelError> {
+    if v.is_finite() && v >= 0.0 {
+        Ok(())
+    } else {
+        Err(ModelError::Parameter { name, value: v, expected: "finite and >= 0" })
+    }
+}
+
+fn check_stiffness(name: &'static str, s: Stiffness) -> Result<(), ModelError> {
+    match s {
+        Stiffness::PerSpring(k) | Stiffness::Membrane(k) => check_nonneg(name, k),
+    }
+}
+
+impl ModelBuilder {
+    /// An empty builder: gravity (0, -9.81, 0) m/s^2, projected damping, no wind, no colliders.
+    pub fn new() -> Self {
+        ModelBuilder {
+            q: Vec::new(),
+            qd: Vec::new(),
+            mass: Vec::new(),
+            pinned: Vec::new(),
+            particle_body: Vec::new(),
+            springs: Vec::new(),
+            tris: Vec::new(),
+            tri_body: Vec::new(),
+            bodies: Vec::new(),
+            gravity: DVec3::new(0.0, -9.81, 0.0),
+            damping_model: DampingModel::Projected,
+            wind: None,
+            colliders: Vec::new(),
+        }
+    }
+
+    /// Sets gravity [m/s^2].
+    pub fn gravity(&mut self, g: DVec3) -> &mut Self {
+        self.gravity = g;
+        self
+    }
+
+    /// Chooses the damping form (seed eq. 2).
+    pub fn damping_model(&mut self, m: DampingModel) -> &mut Self {
+        self.damping_model = m;
+        self
+    }
+
+    /// Sets the wind field.
+    pub fn wind(&mut self, w: WindField) -> &mut Self {
+        self.wind = Some(w);
+        self
+    }
+
+    /// Adds a collider.
+    pub fn add_collider(&mut self, c: Collider) -> &mut Self {
+        self.colliders.push(c);
+        self
+    }
+
+    /// Number of particles so far.
+    pub fn particle_count(&self) -> usize {
+        self.q.len()
+    }
+
+    /// Adds a single particle of mass `mass` [kg] (0 pins it) at `x` with velocity `v`; returns its index.
+    /// For point-mass experiments; see [`ModelBuilder::add_spring`].
+    pub fn add_particle(&mut self, x: DVec3, v: DVec3, mass: f64) -> Result<usize, ModelError> {
+        check_nonneg("mass", mass)?;
+        if !x.is_finite() || !v.is_finite() {
+            return Err(ModelError::Parameter {
+                name: "particle position/velocity",
+                value: f64::NAN,
+                expected: "finite",
+            });
+        }
+        self.q.push(x);
+        self.qd.push(v);
+        self.mass.push(mass);
+        self.pinned.push(mass == 0.0);
+        self.particle_body.push(NONE);
+        Ok(self.q.len() - 1)
+    }
+
+    /// Adds a spring between particles `i` and `j` with stiffness [N/m] and damping [N·s/m]; its rest length is
+    /// their current distance.
+    pub fn add_spring(&mut self, i: usize, j: usize, stiffness: f64, damping: f64) -> Result<usize, ModelError> {
+        let n = self.q.len();
+        for idx in [i, j] {
+            if idx >= n {
+                return Err(ModelError::ParticleOutOfRange { name: "spring end", index: idx, count: n });
+            }
+        }
+        check_nonneg("stiffness", stiffness)?;
+        check_nonneg("damping", damping)?;
+        let l = (self.q[j] - self.q[i]).length();
+        check_pos("spring rest length", l)?;
+        self.springs.push(([i as u32, j as u32], l, stiffness, damping, SpringKind::Edge));
+        Ok(self.springs.len() - 1)
+    }
+
+    /// Adds a closed soft body (a balloon: membrane springs on the edges, gas inside). The mesh must be closed
+    /// when it has gas; an inward-facing mesh is flipped if `opts.reorient`, rejected otherwise.
+    pub fn add_soft_body(&mut self, mesh: &Mesh, opts: &SoftBodyOptions) -> Result<BodyHandle, ModelError> {
+        let mut mesh = mesh.clone();
+        let topo = mesh.topology();
+        let gas = !matches!(opts.gas, Gas::None);
+        if gas && !topo.is_closed() {
+            let e = topo.boundary_edges().next().map(|e| topo.edges[e]).unwrap_or([0, 0]);
+            return Err(MeshError::Open { boundary_edges: topo.boundary_edges().count(), a: e[0], b: e[1] }.into());
+        }
+        if topo.is_closed() {
+            let v = mesh.signed_volume();
+            if v < 0.0 {
+                if !opts.reorient {
+                    return Err(MeshError::InwardFacing { volume: v }.into());
+                }
+                mesh.flip_winding();
+            }
+        }
+        check_nonneg("external_pressure", opts.external_pressure)?;
+        let v0 = if topo.is_closed() { mesh.signed_volume() } else { 0.0 };
+        let nrt = match opts.gas {
+            Gas::None => 0.0,
+            Gas::Amount(a) => {
+                check_pos("gas amount nRT", a)?;
+                a
+            }
+            Gas::Pressure(p) => {
+                check_pos("gas pressure", p)?;
+                p * v0
+            }
+        };
+        let h = self.add_surface(
+            &mesh,
+            &topo,
+            BodyKind::SoftBody,
+            opts.mass,
+            opts.stiffness,
+            None,
+            opts.bending,
+            opts.damping,
+            &[],
+            opts.aero,
+            None,
+            opts.fracture,
+        )?;
+        let b = &mut self.bodies[h.index];
+        b.gas = nrt;
+        b.external_pressure = opts.external_pressure;
+        b.rest_volume = v0;
+        if !opts.velocity.is_finite() {
+            return Err(ModelError::Parameter { name: "velocity", value: f64::NAN, expected: "finite" });
+        }
+        for v in &mut self.qd[h.particles()] {
+            *v = opts.velocity;
+        }
+        Ok(h)
+    }
+
+    /// Adds a cloth from any mesh: edge springs, bending springs across interior edges, pins.
+    pub fn add_cloth(&mut self, mesh: &Mesh, opts: &ClothOptions) -> Result<BodyHandle, ModelError> {
+        let topo = mesh.topology();
+        self.add_surface(
+            mesh,
+            &topo,
+            BodyKind::Cloth,
+            opts.mass,
+            opts.stiffness,
+            None,
+            opts.bending,
+            opts.damping,
+            &opts.pins,
+            opts.aero,
+            None,
+            opts.fracture,
+        )
+    }
+
+    /// Adds an `nx × ny` cloth grid (see [`Mesh::grid`]) placed by `place` (applied to each rest position),
+    /// with the classic layout of Provot 1995: structural springs on grid lines, shear springs on both
+    /// diagonals of every quad, bending springs skipping one vertex. For 128 × 128: 32,512 + 32,258 + 32,256 =
+    /// 97,026 springs.
+    pub fn add_cloth_grid(
+        &mut self,
+        nx: usize,
+        ny: usize,
+        spacing: f64,
+        place: impl Fn(DVec3) -> DVec3,
+        opts: &ClothOptions,
+    ) -> Result<BodyHandle, ModelError> {
+        if nx < 2 || ny < 2 {
+            return Err(ModelError::Parameter {
+                name: "grid size",
+                value: nx.min(ny) as f64,
+                expected: "at least 2 × 2",
+            });
+        }
+        check_pos("spacing", spacing)?;
+        let mesh = Mesh::grid(nx, ny, spacing).map_positions(place)?;
+        let topo = mesh.topology();
+        let grid = GridLayout { nx, ny };
+        self.add_surface(
+            &mesh,
+            &topo,
+            BodyKind::Cloth,
+            opts.mass,
+            opts.stiffness,
+            opts.shear,
+            opts.bending,
+            opts.damping,
+            &opts.pins,
+            opts.aero,
+            Some(grid),
+            opts.fracture,
+        )
+    }
+
+    #[allow(clippy::too_many_arguments)]
+    fn add_surface(
+        &mut self,
+        mesh: &Mesh,
+        topo: &Topology,
+        kind: BodyKind,
+        mass: Mass,
+        stiffness: Stiffness,
+        shear: Option<Stiffness>,
+        bending: Option<Stiffness>,
+        damping: Damping,
+        pins: &[usize],
+        aero: Aero,
+        grid: Option<GridLayout>,
+        fracture: Option<Breakable>,
+    ) -> Result<BodyHandle, ModelError> {
+        check_stiffness("stiffness", stiffness)?;
+        if let Some(f) = &fracture {
+            f.check()?;
+        }
+        if let Some(s) = shear {
+            check_stiffness("shear", s)?;
+        }
+        if let Some(s) = bending {
+            check_stiffness("bending", s)?;
+        }
+        match damping {
+            Damping::PerSpring(d) | Damping::Ratio(d) => check_nonneg("damping", d)?,
+        }
+        for (name, c) in [("aero.drag", aero.drag), ("aero.lift", aero.lift)] {
+            if !c.is_finite() {
+                return Err(ModelError::Parameter { name, value: c, expected: "finite" });
+            }
+        }
+        let p = mesh.positions();
+        let n = p.len();
+        if let Some(&bad) = pins.iter().find(|&&i| i >= n) {
+            return Err(ModelError::ParticleOutOfRange { name: "pins", index: bad, count: n });
+        }
+        // Lumped masses: a third of each triangle's area to each corner.
+        let mut area = vec![0.0; n];
+        for t in mesh.triangles() {
+            let a = tri_area(p, t) / 3.0;
+            for &v in t {
+                area[v as usize] += a;
+            }
+        }
+        let total_area: f64 = area.iter().sum();
+        let m: Vec<f64> = match mass {
+            Mass::Total(mt) => {
+                check_pos("mass", mt)?;
+                area.iter().map(|a| mt * a / total_area).collect()
+            }
+            Mass::AreaDensity(rho) => {
+                check_pos("area density", rho)?;
+                area.iter().map(|a| rho * a).collect()
+            }
+            Mass::PerParticle(mp) => {
+                check_pos("particle mass", mp)?;
+                vec![mp; n]
+            }
+        };
+        if let Some(i) = m.iter().position(|&mi| mi <= 0.0) {
+            return Err(ModelError::Parameter {
+                name: "vertex mass (vertex used by no triangle?)",
+                value: i as f64,
+                expected: "every vertex in a triangle",
+            });
+        }
+        let base = self.q.len() as u32;
+        let body = self.bodies.len() as u32;
+        let first_triangle = self.tris.len();
+        self.q.extend_from_slice(p);
+        self.qd.extend(std::iter::repeat_n(DVec3::ZERO, n));
+        self.mass.extend_from_slice(&m);
+        let mut pinned = vec![false; n];
+        for &i in pins {
+            pinned[i] = true;
+        }
+        self.pinned.extend_from_slice(&pinned);
+        self.particle_body.extend(std::iter::repeat_n(body, n));
+        self.tris.extend(mesh.triangles().iter().map(|t| t.map(|v| v + base)));
+        self.tri_body.extend(std::iter::repeat_n(body, mesh.triangle_count()));
+
+        let tris = mesh.triangles();
+        let resolve = |s: Stiffness, l: f64, area_sum: f64| match s {
+            Stiffness::PerSpring(k) => k,
+            Stiffness::Membrane(eh) => eh * area_sum / (l * l),
+        };
+        let damp = |k: f64, i: usize, j: usize| match damping {
+            Damping::PerSpring(d) => d,
+            Damping::Ratio(z) => {
+                let (mi, mj) = (m[i], m[j]);
+                let mred = match (pinned[i], pinned[j]) {
+                    (true, false) => mj,
+                    (false, true) => mi,
+                    _ => mi * mj / (mi + mj),
+                };
+                2.0 * z * (k * mred).sqrt()
+            }
+        };
+        let push = |i: usize, j: usize, s: Stiffness, area_sum: f64, kind: SpringKind, out: &mut Vec<_>| {
+            let l = (p[j] - p[i]).length();
+            let k = resolve(s, l, area_sum);
+            out.push(([i as u32 + base, j as u32 + base], l, k, damp(k, i, j), kind));
+        };
+        let mut new_springs = Vec::new();
+        for (e, &[a, b]) in topo.edges.iter().enumerate() {
+            let faces = topo.edge_faces[e];
+            let area_sum: f64 = faces.iter().filter(|&&f| f != NONE).map(|&f| tri_area(p, &tris[f as usize])).sum();
+            // On a grid, the mesh diagonals are shear springs.
+            let diagonal = grid.is_some_and(|g| g.is_diagonal(a as usize, b as usize));
+            let s = if diagonal { shear.unwrap_or(stiffness) } else { stiffness };
+            push(
+                a as usize,
+                b as usize,
+                s,
+                area_sum,
+                if diagonal { SpringKind::Shear } else { SpringKind::Edge },
+                &mut new_springs,
+            );
+        }
+        match grid {
+            Some(g) => {
+                if let Some(s) = shear {
+                    // The other diagonal of each quad.
+                    for j in 0..g.ny - 1 {
+                        for i in 0..g.nx - 1 {
+                            let (p00, p10, p01, p11) = (g.v(i, j), g.v(i + 1, j), g.v(i, j + 1), g.v(i + 1, j + 1));
+                            let (a, b) = if (i + j) % 2 == 0 { (p10, p01) } else { (p00, p11) };
+                            push(a, b, s, 0.0, SpringKind::Shear, &mut new_springs);
+                        }
+                    }
+                }
+                if let Some(s) = bending {
+                    for j in 0..g.ny {
+                        for i in 0..g.nx - 2 {
+                            push(g.v(i, j), g.v(i + 2, j), s, 0.0, SpringKind::Bend, &mut new_springs);
+                        }
+                    }
+                    for j in 0..g.ny - 2 {
+                        for i in 0..g.nx {
+                            push(g.v(i, j), g.v(i, j + 2), s, 0.0, SpringKind::Bend, &mut new_springs);
+                        }
+                    }
+                }
+            }
+            None => {
+                if let Some(s) = bending {
+                    // Across each interior edge, between the two opposite vertices.
+                    for (e, &[a, b]) in topo.edges.iter().enumerate() {
+                        let [f0, f1] = topo.edge_faces[e];
+                        if f1 == NONE {
+                            continue;
+                        }
+                        let opp = |f: u32| *tris[f as usize].iter().find(|&&v| v != a && v != b).expect("triangle");
+                        let (c, d) = (opp(f0) as usize, opp(f1) as usize);
+                        let area_sum = tri_area(p, &tris[f0 as usize]) + tri_area(p, &tris[f1 as usize]);
+                        if (p[d] - p[c]).length() > 0.0 {
+                            push(c, d, s, area_sum, SpringKind::Bend, &mut new_springs);
+                        }
+                    }
+                }
+            }
+        }
+        if grid.is_some() {
+            // Order grid springs by direction, then by first particle: every row (or the whole sheet) of one
+            // direction becomes a run of springs `(i0 + k, j0 + k)`, which the spring kernel walks as contiguous
+            // slices instead of gathering through indices.
+            for sp in &mut new_springs {
+                if sp.0[0] > sp.0[1] {
+                    sp.0.swap(0, 1);
+                }
+            }
+            new_springs.sort_by_key(|sp| (sp.0[1] - sp.0[0], sp.0[0]));
+        }
+        self.springs.extend(new_springs);
+        self.bodies.push(BodyDesc {
+            kind,
+            gas: 0.0,
+            external_pressure: 0.0,
+            rest_volume: 0.0,
+            aero,
+            anchor: base,
+            fracture,
+        });
+        Ok(BodyHandle { index: body as usize, first_particle: base as usize, particle_count: n, first_triangle })
+    }
+
+    /// Produces the model in precision `R` (`f32` or `f64`).
+    pub fn finalize<R: Real>(&self) -> Result<Model<R>, ModelError> {
+        if self.q.is_empty() {
+            return Err(ModelError::Empty);
+        }
+        if !self.gravity.is_finite() {
+            return Err(ModelError::Parameter { name: "gravity", value: f64::NAN, expected: "finite" });
+        }
+        let n = self.q.len();
+        let particle_springs = Csr::from_pairs(
+            n,
+            self.springs
+                .iter()
+                .enumerate()
+                .flat_map(|(s, (ij, ..))| [(ij[0], (s as u32) << 1), (ij[1], ((s as u32) << 1) | 1)]),
+        );
+        let particle_tris = Csr::from_pairs(
+            n,
+            self.tris.iter().enumerate().flat_map(|(t, tri)| tri.iter().map(move |&v| (v, t as u32))),
+        );
+        let r = R::from_f64;
+        let v = R::V::from_dvec3;
+        let breakable = |p: u32| self.bodies.get(p as usize).and_then(|b| b.fracture).unwrap_or_default();
+        let mut model = Model {
+            particle_q0: self.q.iter().map(|&x| v(x)).collect(),
+            particle_qd0: self.qd.iter().map(|&x| v(x)).collect(),
+            particle_mass: self.mass.iter().map(|&m| r(m)).collect(),
+            particle_inv_mass: self
+                .mass
+                .iter()
+                .zip(&self.pinned)
+                // The inverse of the rounded mass, so `inv_mass == 1 / mass` holds exactly in `R` (fracture re-derives
+                // it that way and `check_invariants` checks it).
+                .map(|(&m, &p)| if p || m == 0.0 { R::ZERO } else { R::ONE / r(m) })
+                .collect(),
+            particle_body: self.particle_body.clone(),
+            spring_indices: self.springs.iter().map(|s| s.0).collect(),
+            spring_rest_length: self.springs.iter().map(|s| r(s.1)).collect(),
+            spring_stiffness: self.springs.iter().map(|s| r(s.2)).collect(),
+            spring_damping: self.springs.iter().map(|s| r(s.3)).collect(),
+            spring_kind: self.springs.iter().map(|s| s.4).collect(),
+            spring_strain_limit: self
+                .springs
+                .iter()
+                .map(|s| {
+                    let (bi, bj) = (self.particle_body[s.0[0] as usize], self.particle_body[s.0[1] as usize]);
+                    if bi == bj { r(breakable(bi).strain_limit) } else { R::infinity() }
+                })
+                .collect(),
+            particle_load_limit: self.particle_body.iter().map(|&b| r(breakable(b).load_limit)).collect(),
+            tri_indices: self.tris.clone(),
+            tri_body: self.tri_body.clone(),
+            body_kind: self.bodies.iter().map(|b| b.kind).collect(),
+            body_gas_amount: self.bodies.iter().map(|b| r(b.gas)).collect(),
+            body_pressure_external: self.bodies.iter().map(|b| r(b.external_pressure)).collect(),
+            body_rest_volume: self.bodies.iter().map(|b| r(b.rest_volume)).collect(),
+            body_drag: self.bodies.iter().map(|b| r(b.aero.drag)).collect(),
+            body_lift: self.bodies.iter().map(|b| r(b.aero.lift)).collect(),
+            body_anchor: self.bodies.iter().map(|b| b.anchor).collect(),
+            body_sealed: self.bodies.iter().map(|b| b.fracture.is_some_and(|f| f.sealed)).collect(),
+            openings: Vec::new(),
+            breakable: false,
+            spring_runs: SpringRun::detect_if_useful(&self.springs.iter().map(|s| s.0).collect::<Vec<_>>()),
+            particle_springs,
+            particle_tris,
+            gravity: v(self.gravity),
+            damping_model: self.damping_model,
+            wind: self.wind.clone(),
+            colliders: self.colliders.clone(),
+        };
+        model.breakable = model.compute_breakable();
+        Ok(model)
+    }
+}
+
+#[derive(Clone, Copy, Debug)]
+struct GridLayout {
+    nx: usize,
+    ny: usize,
+}
+
+impl GridLayout {
+    fn v(&self, i: usize, j: usize) -> usize {
+        j * self.nx + i
+    }
+    fn is_diagonal(&self, a: usize, b: usize) -> bool {
+        a % self.nx != b % self.nx && a / self.nx != b / self.nx
+    }
+}

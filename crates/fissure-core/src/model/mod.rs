@@ -1,0 +1,327 @@
+//! `ModelBuilder` → `finalize()` → [`Model`] → `model.state()` → [`State`].
+//!
+//! The model is struct-of-arrays with prefix-first names and SI units. It holds everything that does not change
+//! during a step: masses, springs with their rest lengths and coefficients, triangles, bodies with their gas,
+//! the adjacency lists the force gathers walk, gravity, wind and colliders. The state holds only positions and
+//! velocities.
+
+use crate::collision::Collider;
+use crate::csr::Csr;
+use crate::error::{MeshError, ModelError};
+use crate::mesh::{Mesh, tri_area};
+use crate::real::{Real, Vector3};
+use crate::topology::{NONE, Topology, connected_components};
+use crate::wind::{Aero, WindField};
+use glam::DVec3;
+
+mod builder;
+pub(crate) mod edit;
+mod invariants;
+mod options;
+mod state;
+
+pub use builder::ModelBuilder;
+pub use invariants::check_invariants;
+pub use options::{
+    BodyHandle, BodyKind, Breakable, ClothOptions, Damping, DampingModel, Gas, Mass, Opening, SoftBodyOptions,
+    SpringKind, Stiffness,
+};
+pub use state::{Energy, State};
+
+/// Everything a step reads but does not write. See the crate docs for units.
+#[derive(Clone, Debug)]
+pub struct Model<R: Real = f32> {
+    /// Initial positions [m].
+    pub particle_q0: Vec<R::V>,
+    /// Initial velocities [m/s].
+    pub particle_qd0: Vec<R::V>,
+    /// Mass [kg] (pinned particles keep theirs for accounting).
+    pub particle_mass: Vec<R>,
+    /// Inverse mass [1/kg]; 0 pins a particle.
+    pub particle_inv_mass: Vec<R>,
+    /// Owning body, or `u32::MAX` for free particles.
+    pub particle_body: Vec<u32>,
+    /// Spring ends `[i, j]`.
+    pub spring_indices: Vec<[u32; 2]>,
+    /// Rest length `L0` [m].
+    pub spring_rest_length: Vec<R>,
+    /// Stiffness `ks` [N/m].
+    pub spring_stiffness: Vec<R>,
+    /// Damping `kd` [N·s/m].
+    pub spring_damping: Vec<R>,
+    /// What each spring represents.
+    pub spring_kind: Vec<SpringKind>,
+    /// Strain `(l - L0) / L0` past which each spring breaks (infinity: never).
+    pub spring_strain_limit: Vec<R>,
+    /// Load [N] past which each particle breaks out as a core block (infinity: never); see the `fracture` module.
+    pub particle_load_limit: Vec<R>,
+    /// Triangles, counter-clockwise from outside.
+    pub tri_indices: Vec<[u32; 3]>,
+    /// Owning body of each triangle.
+    pub tri_body: Vec<u32>,
+    /// Kind of each body.
+    pub body_kind: Vec<BodyKind>,
+    /// `nRT` [J] of each body's gas (0: none).
+    pub body_gas_amount: Vec<R>,
+    /// Outside pressure [Pa].
+    pub body_pressure_external: Vec<R>,
+    /// Volume at rest [m^3] (0 for open bodies). Volumes are clamped at [`crate::forces::pressure::MIN_VOLUME_FRACTION`] of it so an inverted body's
+    /// pressure stays finite.
+    pub body_rest_volume: Vec<R>,
+    /// Drag coefficient.
+    pub body_drag: Vec<R>,
+    /// Lift coefficient.
+    pub body_lift: Vec<R>,
+    /// A particle of each body about which its volume is summed (round-off control only).
+    pub body_anchor: Vec<u32>,
+    /// Whether each body keeps its gas when punctured.
+    pub body_sealed: Vec<bool>,
+    /// Openings of the gas bodies (none until something breaks).
+    pub openings: Vec<Opening>,
+    /// Derived: some spring or particle can break (only then does the fracture pass do any work).
+    pub breakable: bool,
+    /// Springs of each particle: entry `s << 1 | end`, `end` 0 for `spring_indices[s][0]`.
+    pub particle_springs: Csr,
+    /// Triangles of each particle.
+    pub particle_tris: Csr,
+    /// Maximal runs of consecutive springs whose ends advance together (see [`SpringRun`]); derived. Empty when
+    /// the runs would be too short to pay (irregular meshes): the gather kernel is used then.
+    pub spring_runs: Vec<SpringRun>,
+    /// Gravity [m/s^2].
+    pub gravity: R::V,
+    /// Damping form.
+    pub damping_model: DampingModel,
+    /// Wind, if any.
+    pub wind: Option<WindField>,
+    /// Colliders.
+    pub colliders: Vec<Collider>,
+}
+
+/// Springs `first + k` for `k < len` with ends `(i + k, j + k)`. Cloth grids consist of a few hundred such runs;
+/// the solver then computes spring forces on contiguous slices, per block of particles, without the per-spring
+/// force buffer and index gather that an irregular mesh needs.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct SpringRun {
+    /// First spring.
+    pub first: u32,
+    /// End 0 of the first spring.
+    pub i: u32,
+    /// End 1 of the first spring.
+    pub j: u32,
+    /// Number of springs.
+    pub len: u32,
+}
+
+impl SpringRun {
+    /// [`SpringRun::detect`] if the runs are long enough for the run kernel (average ≥ 16), else empty: a model
+    /// keeps runs only while it uses them.
+    pub fn detect_if_useful(springs: &[[u32; 2]]) -> Vec<SpringRun> {
+        let runs = Self::detect(springs);
+        if springs.len() >= 16 * runs.len() { runs } else { Vec::new() }
+    }
+
+    /// Splits `springs` into maximal runs.
+    pub fn detect(springs: &[[u32; 2]]) -> Vec<SpringRun> {
+        let mut runs: Vec<SpringRun> = Vec::new();
+        for (s, &[i, j]) in springs.iter().enumerate() {
+            match runs.last_mut() {
+                Some(r) if r.i.wrapping_add(r.len) == i && r.j.wrapping_add(r.len) == j => r.len += 1,
+                _ => runs.push(SpringRun { first: s as u32, i, j, len: 1 }),
+            }
+        }
+        runs
+    }
+}
+
+impl<R: Real> Model<R> {
+    /// The initial state.
+    pub fn state(&self) -> State<R> {
+        State { particle_q: self.particle_q0.clone(), particle_qd: self.particle_qd0.clone(), time: 0.0 }
+    }
+    /// Number of particles.
+    pub fn particle_count(&self) -> usize {
+        self.particle_q0.len()
+    }
+    /// Number of springs.
+    pub fn spring_count(&self) -> usize {
+        self.spring_indices.len()
+    }
+    /// Number of triangles.
+    pub fn tri_count(&self) -> usize {
+        self.tri_indices.len()
+    }
+    /// Number of bodies.
+    pub fn body_count(&self) -> usize {
+        self.body_kind.len()
+    }
+    /// Number of springs that have not broken.
+    pub fn live_spring_count(&self) -> usize {
+        self.spring_kind.iter().filter(|&&k| k != SpringKind::Broken).count()
+    }
+    /// True if something can break (a finite strain or load limit): only then does the fracture pass run.
+    pub fn has_fracture(&self) -> bool {
+        self.breakable
+    }
+    /// Scans the limits for [`Model::breakable`].
+    pub fn compute_breakable(&self) -> bool {
+        self.spring_strain_limit.iter().zip(&self.spring_kind).any(|(l, &k)| l.is_finite() && k != SpringKind::Broken)
+            || self.particle_load_limit.iter().any(|l| l.is_finite())
+    }
+    /// True if any body holds gas: only then is the pressure pass run.
+    pub fn has_pressure(&self) -> bool {
+        self.body_gas_amount.iter().any(|&g| g > R::ZERO)
+    }
+    /// True if there is wind and a body that feels it: only then is the aerodynamics pass run.
+    pub fn has_wind(&self) -> bool {
+        self.wind.is_some() && self.body_drag.iter().zip(&self.body_lift).any(|(&d, &l)| d != R::ZERO || l != R::ZERO)
+    }
+    /// True if there are colliders: only then is the collision pass run.
+    pub fn has_colliders(&self) -> bool {
+        !self.colliders.is_empty()
+    }
+    /// Total mass [kg], summed in `f64`.
+    pub fn total_mass(&self) -> f64 {
+        self.particle_mass.iter().map(|m| m.to_f64()).sum()
+    }
+
+    /// Enclosed volume of each body [m^3] (0 for bodies without gas), `f64`.
+    pub fn body_volumes(&self, state: &State<R>) -> Vec<f64> {
+        let mut vol = vec![0.0; self.body_count()];
+        // Runs of triangles of one body (the usual layout) accumulate in a register.
+        let mut run = (u32::MAX, DVec3::ZERO, 0.0);
+        for (tri, &b) in self.tri_indices.iter().zip(&self.tri_body) {
+            if b != run.0 {
+                if run.0 != u32::MAX {
+                    vol[run.0 as usize] += run.2;
+                }
+                run = (b, state.particle_q[self.body_anchor[b as usize] as usize].to_dvec3(), 0.0);
+            }
+            let c = run.1;
+            let [x0, x1, x2] = tri.map(|i| state.particle_q[i as usize].to_dvec3() - c);
+            run.2 += x0.dot(x1.cross(x2));
+        }
+        if run.0 != u32::MAX {
+            vol[run.0 as usize] += run.2;
+        }
+        for v in &mut vol {
+            *v /= 6.0;
+        }
+        for o in &self.openings {
+            let b = o.body as usize;
+            let c = state.particle_q[self.body_anchor[b] as usize].to_dvec3();
+            let x = |i: u32| state.particle_q[i as usize].to_dvec3() - c;
+            let n = o.vertices.len();
+            let centre = o.vertices.iter().map(|&i| x(i)).sum::<DVec3>() / n as f64;
+            for k in 0..n {
+                let (i, j) = (o.vertices[k], o.vertices[(k + 1) % n]);
+                vol[b] += x(j).dot(x(i).cross(centre)) / 6.0;
+            }
+        }
+        vol
+    }
+
+    /// Total area [m^2] of the openings of body `b` (the area of their caps' vector sums), `f64`.
+    pub fn opening_area(&self, state: &State<R>, b: usize) -> f64 {
+        self.openings
+            .iter()
+            .filter(|o| o.body as usize == b)
+            .map(|o| {
+                let n = o.vertices.len();
+                let x = |k: usize| state.particle_q[o.vertices[k % n] as usize].to_dvec3();
+                let a: DVec3 = (0..n).map(|k| x(k).cross(x(k + 1))).sum();
+                0.5 * a.length()
+            })
+            .sum()
+    }
+
+    /// Gas pressure `nRT / V` of each body [Pa] (0 without gas).
+    pub fn body_pressures(&self, state: &State<R>) -> Vec<f64> {
+        self.body_volumes(state).iter().enumerate().map(|(b, &v)| self.gas_pressure(b, v)).collect()
+    }
+
+    /// Gas pressure `nRT / V` [Pa] of body `b` at volume `v` [m^3] (clamped at
+    /// [`crate::forces::pressure::MIN_VOLUME_FRACTION`] of the rest volume, as the force pass does); 0 without gas.
+    pub fn gas_pressure(&self, b: usize, v: f64) -> f64 {
+        let g = self.body_gas_amount[b].to_f64();
+        crate::forces::pressure::gas_pressure(g, v, self.body_rest_volume[b].to_f64(), 0.0)
+    }
+
+    /// Linear momentum [kg·m/s] of the free particles, `f64`.
+    pub fn momentum(&self, state: &State<R>) -> DVec3 {
+        (0..self.particle_count())
+            .filter(|&i| self.particle_inv_mass[i] > R::ZERO)
+            .map(|i| state.particle_qd[i].to_dvec3() * self.particle_mass[i].to_f64())
+            .sum()
+    }
+
+    /// Centre of mass [m], `f64`.
+    pub fn center_of_mass(&self, state: &State<R>) -> DVec3 {
+        let m = self.total_mass();
+        (0..self.particle_count())
+            .map(|i| state.particle_q[i].to_dvec3() * self.particle_mass[i].to_f64())
+            .sum::<DVec3>()
+            / m
+    }
+    /// Recomputes the derived adjacency (particle → springs, particle → triangles, spring runs) after the
+    /// spring or triangle arrays were edited by hand.
+    pub fn refresh_derived(&mut self) {
+        let n = self.particle_count();
+        self.particle_springs = Csr::from_pairs(
+            n,
+            self.spring_indices
+                .iter()
+                .enumerate()
+                .filter(|(s, _)| self.spring_kind[*s] != SpringKind::Broken)
+                .flat_map(|(s, ij)| [(ij[0], (s as u32) << 1), (ij[1], ((s as u32) << 1) | 1)]),
+        );
+        self.particle_tris = Csr::from_pairs(
+            n,
+            self.tri_indices.iter().enumerate().flat_map(|(t, tri)| tri.iter().map(move |&v| (v, t as u32))),
+        );
+        self.spring_runs = SpringRun::detect_if_useful(&self.spring_indices);
+        self.breakable = self.compute_breakable();
+    }
+
+    /// Reserves room for `particles`, `springs` and `triangles` more (fracture appends them), so that growing
+    /// does not reallocate mid-simulation.
+    pub fn reserve(&mut self, particles: usize, springs: usize, triangles: usize) {
+        self.particle_q0.reserve(particles);
+        self.particle_qd0.reserve(particles);
+        self.particle_mass.reserve(particles);
+        self.particle_inv_mass.reserve(particles);
+        self.particle_body.reserve(particles);
+        self.particle_load_limit.reserve(particles);
+        for c in [&mut self.particle_springs, &mut self.particle_tris] {
+            c.start.reserve(particles);
+            c.len.reserve(particles);
+            c.cap.reserve(particles);
+        }
+        self.particle_springs.items.reserve(8 * springs);
+        self.particle_tris.items.reserve(12 * triangles);
+        self.spring_indices.reserve(springs);
+        self.spring_rest_length.reserve(springs);
+        self.spring_stiffness.reserve(springs);
+        self.spring_damping.reserve(springs);
+        self.spring_kind.reserve(springs);
+        self.spring_strain_limit.reserve(springs);
+        self.tri_indices.reserve(triangles);
+        self.tri_body.reserve(triangles);
+    }
+
+    /// True when the springs form long runs (average ≥ 16), so the run kernel is used.
+    pub fn springs_are_runs(&self) -> bool {
+        !self.spring_runs.is_empty() && self.spring_count() >= 16 * self.spring_runs.len()
+    }
+
+    /// Connected pieces of the surface (particles joined by springs): `(count, label per particle)`.
+    pub fn components(&self) -> (usize, Vec<u32>) {
+        connected_components(
+            self.particle_count(),
+            self.spring_indices
+                .iter()
+                .zip(&self.spring_kind)
+                .filter(|(_, k)| **k != SpringKind::Broken)
+                .map(|(s, _)| *s),
+        )
+    }
+}

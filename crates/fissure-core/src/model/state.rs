@@ -1,0 +1,62 @@
+//! [`State`] (positions, velocities, time) and the energies of a state.
+
+use super::*;
+use crate::forces::{pressure, spring};
+
+/// Positions and velocities: the only data a step changes.
+#[derive(Clone, Debug, PartialEq)]
+pub struct State<R: Real = f32> {
+    /// Positions [m].
+    pub particle_q: Vec<R::V>,
+    /// Velocities [m/s].
+    pub particle_qd: Vec<R::V>,
+    /// Simulation time [s].
+    pub time: f64,
+}
+
+/// Energies of a state [J], each summed in `f64`.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Energy {
+    /// `Σ ½ m v²` of free particles.
+    pub kinetic: f64,
+    /// `Σ ½ ks (l - L0)²`.
+    pub spring: f64,
+    /// `Σ -nRT ln(V / V0)` (0 at rest volume) plus `P_ext (V - V0)`.
+    pub gas: f64,
+    /// `-Σ m g·x` of free particles.
+    pub gravity: f64,
+}
+
+impl Energy {
+    /// Sum of all terms.
+    pub fn total(&self) -> f64 {
+        self.kinetic + self.spring + self.gas + self.gravity
+    }
+}
+
+impl<R: Real> Model<R> {
+    /// The energies of `state` (wind and colliders do work and are not included).
+    pub fn energy(&self, state: &State<R>) -> Energy {
+        let mut e = Energy::default();
+        let g = self.gravity.to_dvec3();
+        for i in 0..self.particle_count() {
+            if self.particle_inv_mass[i] > R::ZERO {
+                let m = self.particle_mass[i].to_f64();
+                e.kinetic += 0.5 * m * state.particle_qd[i].to_dvec3().length_squared();
+                e.gravity -= m * g.dot(state.particle_q[i].to_dvec3());
+            }
+        }
+        for (s, &[i, j]) in self.spring_indices.iter().enumerate() {
+            let l = (state.particle_q[j as usize].to_dvec3() - state.particle_q[i as usize].to_dvec3()).length();
+            e.spring += spring::potential(l, self.spring_rest_length[s].to_f64(), self.spring_stiffness[s].to_f64());
+        }
+        for (b, v) in self.body_volumes(state).into_iter().enumerate() {
+            let gas = self.body_gas_amount[b].to_f64();
+            let v0 = self.body_rest_volume[b].to_f64();
+            if gas > 0.0 {
+                e.gas += pressure::gas_energy(gas, v, v0, self.body_pressure_external[b].to_f64());
+            }
+        }
+        e
+    }
+}

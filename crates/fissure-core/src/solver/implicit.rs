@@ -1,0 +1,314 @@
+//! Implicit Euler (Baraff & Witkin 1998): the linearised backward Euler system `(M + h C + h² K) Δv = h f + h² K v`
+//! solved matrix-free by Jacobi-preconditioned conjugate gradients, springs by their exact stretched Jacobians
+//! ([`crate::forces::spring::implicit_coefficients`]) and the gas by its rank-one Jacobian `nRT/V² g gᵀ`.
+
+use super::*;
+
+#[derive(Clone, Debug, Default)]
+pub(super) struct ImplicitScratch<R: Real> {
+    pub(super) r: Vec<R::V>,
+    pub(super) z: Vec<R::V>,
+    pub(super) p: Vec<R::V>,
+    pub(super) ap: Vec<R::V>,
+    pub(super) dv: Vec<R::V>,
+    pub(super) diag: Vec<R::V>,
+    pub(super) g: Vec<R::V>,
+    /// Unit direction of each spring.
+    pub(super) u: Vec<R::V>,
+    /// `[h² ks (1 - L0/l)+, h² ks, iso + damping, axial + damping]`: stiffness-only and system coefficients of the
+    /// spring block `iso I + (axial - iso) u uᵀ`.
+    pub(super) coef: Vec<[R; 4]>,
+    /// `h² nRT / V²` per body.
+    pub(super) body_c: Vec<R>,
+    /// `g · p` per body.
+    pub(super) body_dot: Vec<R>,
+    pub(super) partials: Vec<R>,
+}
+
+impl<R: Real> CpuSolver<R> {
+    pub(super) fn implicit_euler(
+        &mut self,
+        m: &Model<R>,
+        s: &mut State<R>,
+        dt: R,
+        blown: &AtomicBool,
+    ) -> Result<(), StepError> {
+        let h = dt;
+        let h2 = h * h;
+        let surface = self.forces(m, &s.particle_q, &s.particle_qd, s.time);
+        let t = Instant::now();
+        let mut im = std::mem::take(&mut self.imp);
+        let pressure = m.has_pressure();
+        let (q, v0) = (&s.particle_q, &s.particle_qd);
+        // Spring blocks.
+        let projected = m.damping_model == DampingModel::Projected;
+        {
+            let coef = &mut im.coef;
+            let u = &mut im.u;
+            par::chunks2(u, coef, |start, us, cs| {
+                for k in 0..us.len() {
+                    let sidx = start + k;
+                    let [i, j] = m.spring_indices[sidx];
+                    let d = q[j as usize] - q[i as usize];
+                    let (ks, kd, l0) = (m.spring_stiffness[sidx], m.spring_damping[sidx], m.spring_rest_length[sidx]);
+                    (us[k], cs[k]) = implicit_coefficients(d, l0, ks, kd, h, projected);
+                }
+            });
+        }
+        // Pressure: g = ∂V/∂x per particle and c_b = h² nRT / V².
+        if pressure {
+            let tri_cross = &self.f.tri_cross;
+            let sixth = R::from_f64(1.0 / 6.0);
+            par::chunks(&mut im.g, |start, gs| {
+                for k in 0..gs.len() {
+                    let i = start + k;
+                    let mut acc = R::V::ZERO;
+                    for &tt in m.particle_tris.row(i) {
+                        if m.body_gas_amount[m.tri_body[tt as usize] as usize] > R::ZERO {
+                            acc += tri_cross[tt as usize];
+                        }
+                    }
+                    gs[k] = acc * sixth;
+                }
+            });
+            for &i in &self.f.cap_touched {
+                im.g[i as usize] += self.f.cap_g[i as usize];
+            }
+            for b in 0..m.body_count() {
+                let gas = m.body_gas_amount[b];
+                let v = pressure::clamped_volume(self.f.body_volume[b], m.body_rest_volume[b]);
+                im.body_c[b] = if gas > R::ZERO { h2 * gas / (v * v) } else { R::ZERO };
+            }
+        }
+        // Right-hand side b = h f0 + G(y_K(v0)) - Σ c_b g (g·v0), into r (the initial guess is 0).
+        {
+            let f = &self.f;
+            par::chunks(&mut im.r, |start, rs| {
+                for k in 0..rs.len() {
+                    let i = start + k;
+                    rs[k] = if m.particle_inv_mass[i] == R::ZERO {
+                        R::V::ZERO
+                    } else {
+                        particle_force(m, f, surface, i) * h
+                    };
+                }
+            });
+        }
+        // The spring buffer is free now: reuse it for y_K(v0).
+        spring_apply(m, &im.u, &im.coef, 0, v0, &mut self.f.spring_f);
+        if pressure {
+            body_dots(m, &im.g, v0, &mut im.partials, &mut im.body_dot);
+        }
+        {
+            let f = &self.f;
+            let (g, bc, bd) = (&im.g, &im.body_c, &im.body_dot);
+            par::chunks(&mut im.r, |start, rs| {
+                for k in 0..rs.len() {
+                    let i = start + k;
+                    if m.particle_inv_mass[i] == R::ZERO {
+                        continue;
+                    }
+                    rs[k] += spring_gather(m, &f.spring_f, i);
+                    if pressure {
+                        let body = m.particle_body[i];
+                        if body != NONE && bc[body as usize] > R::ZERO {
+                            rs[k] -= g[i] * (bc[body as usize] * bd[body as usize]);
+                        }
+                    }
+                }
+            });
+        }
+        // Jacobi preconditioner: the inverse of A's diagonal.
+        {
+            let (u, coef, g, bc) = (&im.u, &im.coef, &im.g, &im.body_c);
+            par::chunks(&mut im.diag, |start, ds| {
+                for k in 0..ds.len() {
+                    let i = start + k;
+                    // Pinned particles are filtered out of the solve: a zero preconditioner keeps them at dv = 0
+                    // (and avoids 0 · ∞ when a massless anchor has no stiffness in some direction).
+                    if m.particle_inv_mass[i] == R::ZERO {
+                        ds[k] = R::V::ZERO;
+                        continue;
+                    }
+                    let mut d = R::V::new(R::ONE, R::ONE, R::ONE) * m.particle_mass[i];
+                    for &e in m.particle_springs.row(i) {
+                        let sidx = (e >> 1) as usize;
+                        let [_, _, iso, axial] = coef[sidx];
+                        let uu = u[sidx].mul_elem(u[sidx]);
+                        d += R::V::new(iso, iso, iso) + uu * (axial - iso);
+                    }
+                    if pressure {
+                        let body = m.particle_body[i];
+                        if body != NONE {
+                            d += g[i].mul_elem(g[i]) * bc[body as usize];
+                        }
+                    }
+                    ds[k] = d.recip();
+                    debug_assert!(ds[k].is_finite(), "free particle {i} has a zero diagonal");
+                }
+            });
+        }
+        self.timers.add(Stage::Integrate, t);
+        let t = Instant::now();
+        let result = self.cg_solve(m, &mut im, pressure);
+        self.timers.add(Stage::Solve, t);
+        let t = Instant::now();
+        let dv = &im.dv;
+        par::chunks2(&mut s.particle_q, &mut s.particle_qd, |start, qs, vs| {
+            let mut bad = false;
+            for k in 0..qs.len() {
+                let i = start + k;
+                if m.particle_inv_mass[i] == R::ZERO {
+                    continue;
+                }
+                vs[k] += dv[i];
+                qs[k] += vs[k] * h;
+                bad |= !(vs[k].is_finite() && qs[k].is_finite());
+            }
+            if bad {
+                blown.store(true, Ordering::Relaxed);
+            }
+        });
+        self.imp = im;
+        self.timers.add(Stage::Integrate, t);
+        result
+    }
+
+    /// Preconditioned conjugate gradients on `A dv = r` with pinned particles filtered out.
+    pub(super) fn cg_solve(
+        &mut self,
+        m: &Model<R>,
+        im: &mut ImplicitScratch<R>,
+        pressure: bool,
+    ) -> Result<(), StepError> {
+        let n = m.particle_count();
+        im.dv.iter_mut().for_each(|x| *x = R::V::ZERO);
+        let bnorm2 = par::sum(n, &mut im.partials, |i| im.r[i].dot(im.r[i]));
+        self.cg = CgStats::default();
+        if bnorm2 == R::ZERO {
+            return Ok(());
+        }
+        let tol2 = R::from_f64(self.config.cg_tolerance * self.config.cg_tolerance) * bnorm2;
+        precondition::<R>(&im.r, &im.diag, &mut im.z);
+        im.p.copy_from_slice(&im.z);
+        let mut rz = par::sum(n, &mut im.partials, |i| im.r[i].dot(im.z[i]));
+        let mut rr = bnorm2;
+        let mut it = 0;
+        while it < self.config.cg_max_iterations && rr > tol2 {
+            self.apply_a(m, im, pressure);
+            let pap = par::sum(n, &mut im.partials, |i| im.p[i].dot(im.ap[i]));
+            if !pap.is_finite() || pap <= R::ZERO {
+                // A is symmetric positive definite on the free particles by construction (clamped spring blocks,
+                // positive masses, positive semidefinite pressure term): a non-positive or NaN curvature means
+                // the state itself is broken.
+                let residual = (rr / bnorm2).to_f64().sqrt();
+                self.cg = CgStats { iterations: it, residual };
+                return Err(StepError::NoConvergence { iterations: it, residual });
+            }
+            let alpha = rz / pap;
+            {
+                let (p, ap) = (&im.p, &im.ap);
+                par::chunks2(&mut im.dv, &mut im.r, |start, xs, rs| {
+                    for k in 0..xs.len() {
+                        xs[k] += p[start + k] * alpha;
+                        rs[k] -= ap[start + k] * alpha;
+                    }
+                });
+            }
+            precondition::<R>(&im.r, &im.diag, &mut im.z);
+            let rz_new = par::sum(n, &mut im.partials, |i| im.r[i].dot(im.z[i]));
+            rr = par::sum(n, &mut im.partials, |i| im.r[i].dot(im.r[i]));
+            let beta = rz_new / rz;
+            rz = rz_new;
+            let z = &im.z;
+            par::chunks(&mut im.p, |start, ps| {
+                for k in 0..ps.len() {
+                    ps[k] = z[start + k] + ps[k] * beta;
+                }
+            });
+            it += 1;
+        }
+        let residual = (rr / bnorm2).to_f64().sqrt();
+        self.cg = CgStats { iterations: it, residual };
+        if !residual.is_finite() {
+            return Err(StepError::NoConvergence { iterations: it, residual });
+        }
+        Ok(())
+    }
+
+    /// `ap = A p = M p - G(y_A(p)) + Σ c_b g (g·p)`, zero on pinned particles.
+    pub(super) fn apply_a(&mut self, m: &Model<R>, im: &mut ImplicitScratch<R>, pressure: bool) {
+        spring_apply(m, &im.u, &im.coef, 2, &im.p, &mut self.f.spring_f);
+        if pressure {
+            body_dots(m, &im.g, &im.p, &mut im.partials, &mut im.body_dot);
+        }
+        let f = &self.f;
+        let (p, g, bc, bd) = (&im.p, &im.g, &im.body_c, &im.body_dot);
+        par::chunks(&mut im.ap, |start, aps| {
+            for k in 0..aps.len() {
+                let i = start + k;
+                if m.particle_inv_mass[i] == R::ZERO {
+                    aps[k] = R::V::ZERO;
+                    continue;
+                }
+                let mut y = p[i] * m.particle_mass[i] - spring_gather(m, &f.spring_f, i);
+                if pressure {
+                    let body = m.particle_body[i];
+                    if body != NONE {
+                        y += g[i] * (bc[body as usize] * bd[body as usize]);
+                    }
+                }
+                aps[k] = y;
+            }
+        });
+    }
+}
+
+/// `Σ` spring buffer entries of particle `i` with the force sign convention (+ on end 0, - on end 1).
+#[inline(always)]
+fn spring_gather<R: Real>(m: &Model<R>, buf: &[R::V], i: usize) -> R::V {
+    let mut f = R::V::ZERO;
+    for &e in m.particle_springs.row(i) {
+        let v = buf[(e >> 1) as usize];
+        if e & 1 == 0 {
+            f += v;
+        } else {
+            f -= v;
+        }
+    }
+    f
+}
+
+/// `out_s = B_s (p_j - p_i)` with `B_s = c[o] I + (c[o+1] - c[o]) u uᵀ` (o = 0: stiffness only, 2: system).
+fn spring_apply<R: Real>(m: &Model<R>, u: &[R::V], coef: &[[R; 4]], o: usize, p: &[R::V], out: &mut [R::V]) {
+    par::chunks(out, |start, ys| {
+        for k in 0..ys.len() {
+            let s = start + k;
+            let [i, j] = m.spring_indices[s];
+            let d = p[j as usize] - p[i as usize];
+            let (iso, axial) = (coef[s][o], coef[s][o + 1]);
+            ys[k] = d * iso + u[s] * ((axial - iso) * u[s].dot(d));
+        }
+    });
+}
+
+/// `out_b = Σ_{i in body b} g_i · p_i`, deterministic.
+fn body_dots<R: Real>(m: &Model<R>, g: &[R::V], p: &[R::V], partials: &mut Vec<R>, out: &mut [R]) {
+    for (b, o) in out.iter_mut().enumerate() {
+        if m.body_gas_amount[b] > R::ZERO {
+            *o = par::sum(m.particle_count(), partials, |i| {
+                if m.particle_body[i] as usize == b { g[i].dot(p[i]) } else { R::ZERO }
+            });
+        } else {
+            *o = R::ZERO;
+        }
+    }
+}
+
+fn precondition<R: Real>(r: &[R::V], inv_diag: &[R::V], z: &mut [R::V]) {
+    par::chunks(z, |start, zs| {
+        for k in 0..zs.len() {
+            zs[k] = r[start + k].mul_elem(inv_diag[start + k]);
+        }
+    });
+}
