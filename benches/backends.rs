@@ -43,7 +43,7 @@ fn cases(quick: bool) -> Vec<Case> {
         ..Default::default()
     };
     b.add_soft_body(&Mesh::icosphere(0.25, sub).translated(DVec3::new(0.0, 0.26, 0.0)), &opts).unwrap();
-    b.add_collider(Collider::ground(0.0));
+    b.add_collider(Collider::ground(0.0)).unwrap();
     let model = b.finalize().unwrap();
     // 10 µg particles on 2500 N/m membrane springs: the Gershgorin bound puts the stable step near 2.6e-5 s.
     let dt = if sub >= 6 { 1e-5 } else { DT };

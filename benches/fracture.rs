@@ -31,7 +31,7 @@ fn targets(m: &Model<f32>, core: bool) -> Vec<usize> {
 fn batch(m: &mut Model<f32>, s: &mut State<f32>, f: &mut Fracture<f32>, ts: &[usize], core: bool) -> usize {
     let mut events = 0;
     for &t in ts {
-        events += if core { f.break_core(m, s, t) } else { f.break_spring(m, s, t) }.len();
+        events += if core { f.break_core(m, s, t) } else { f.break_spring(m, s, t) }.events.len();
     }
     events
 }

@@ -117,14 +117,10 @@ pub fn run(
     };
     let wall = Instant::now();
     for frame in 1..=frames {
-        let end = frame as f64 / FPS;
-        let mut changed = false;
-        while world.state.time < end - 1e-12 {
-            let h = dt.min(end - world.state.time);
-            changed |= world.step(h)? > 0;
-            if puncture_volume.is_none() && !world.model.openings.is_empty() {
-                puncture_volume = Some(world.model.body_volumes(&world.state)[0]);
-            }
+        let changed = world.advance(frame as f64 / FPS - world.state.time, dt)?.topology_changed;
+        // The volume when the ball is first seen punctured (at a frame's end: the check compares the end with it).
+        if puncture_volume.is_none() && !world.model.openings.is_empty() {
+            puncture_volume = Some(world.model.body_volumes(&world.state)[0]);
         }
         if let Some(p) = &mut pics {
             if changed {

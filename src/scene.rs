@@ -57,6 +57,123 @@ use glam::{DVec3, Vec3};
 use serde::Deserialize;
 use std::path::{Path, PathBuf};
 
+/// `[solver] integrator`: the time integrator, by name.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum IntegratorName {
+    /// Symplectic Euler (the seed's eqs. 3–5). The default.
+    #[default]
+    SymplecticEuler,
+    /// Velocity Verlet.
+    VelocityVerlet,
+    /// Classical Runge–Kutta.
+    Rk4,
+    /// Implicit Euler (Baraff–Witkin).
+    ImplicitEuler,
+}
+
+impl From<IntegratorName> for Integrator {
+    fn from(n: IntegratorName) -> Integrator {
+        match n {
+            IntegratorName::SymplecticEuler => Integrator::SymplecticEuler,
+            IntegratorName::VelocityVerlet => Integrator::VelocityVerlet,
+            IntegratorName::Rk4 => Integrator::Rk4,
+            IntegratorName::ImplicitEuler => Integrator::ImplicitEuler,
+        }
+    }
+}
+
+impl std::fmt::Display for IntegratorName {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(Integrator::from(*self).name())
+    }
+}
+
+/// `[solver] damping_model`: along the spring (`projected`) or the seed's eq. 2 (`unprojected`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum DampingName {
+    /// Along the spring. The default.
+    #[default]
+    Projected,
+    /// The seed's eq. 2, which also damps shear and rotation of each spring.
+    Unprojected,
+}
+
+/// `[[body]] shape`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum BodyShape {
+    /// A subdivided icosahedron (`radius`, `subdivisions`).
+    Icosphere,
+    /// A box (`half_extents`, `cells`).
+    Cuboid,
+    /// A mesh from an OBJ file (`file`).
+    Obj,
+    /// A rectangular cloth (`resolution`, `width`, `orientation`, `pin`, `shear`).
+    Cloth,
+}
+
+/// `[[body]] orientation` of a cloth.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Orientation {
+    /// In the xy plane, hanging down from its top edge. The default.
+    #[default]
+    Vertical,
+    /// In the xz plane.
+    Horizontal,
+}
+
+/// `[[body]] pin` of a cloth: which particles are held.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Pin {
+    /// The two top corners. The default.
+    #[default]
+    TopCorners,
+    /// The whole top edge.
+    TopEdge,
+    /// Nothing.
+    None,
+}
+
+/// `[[collider]] shape`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum ColliderShape {
+    /// The floor `y = height`.
+    Ground,
+    /// A wall: the half-space behind `point` with outward `normal`.
+    Plane,
+    /// A ball (`center`, `radius`).
+    Ball,
+    /// An axis-aligned box (`center`, `half_extents`).
+    Cuboid,
+    /// A capsule (`a`, `b`, `radius`).
+    Capsule,
+}
+
+impl ColliderShape {
+    fn name(self) -> &'static str {
+        match self {
+            ColliderShape::Ground => "ground",
+            ColliderShape::Plane => "plane",
+            ColliderShape::Ball => "ball",
+            ColliderShape::Cuboid => "cuboid",
+            ColliderShape::Capsule => "capsule",
+        }
+    }
+}
+
+/// Core parameter names that differ from a body's scene keys.
+const BODY_KEYS: &[(&str, &str)] = &[
+    ("damping", "damping_ratio"),
+    ("fracture.strain_limit", "strain_limit"),
+    ("fracture.load_limit", "load_limit"),
+    ("spacing", "width"),
+];
+
 /// A scene that could not be read or built.
 #[derive(Debug, thiserror::Error)]
 pub enum SceneError {
@@ -130,8 +247,8 @@ pub struct Scene {
 #[derive(Clone, Debug, Deserialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct SolverSection {
-    /// Integrator name. Default `symplectic_euler`.
-    pub integrator: String,
+    /// Integrator: `symplectic_euler` (default), `velocity_verlet`, `rk4` or `implicit_euler`.
+    pub integrator: IntegratorName,
     /// Step [s]. Default 1e-4.
     pub dt: f64,
     /// Simulated time of a run [s]. Default 2.
@@ -140,17 +257,21 @@ pub struct SolverSection {
     pub gravity: [f64; 3],
     /// Spring damping: `projected` (along the spring; default) or `unprojected` (the seed's eq. 2, which also
     /// damps shear and rotation of each spring).
-    pub damping_model: String,
+    pub damping_model: DampingName,
+    /// Stability guard: split a step that is too large for the mesh into substeps of at most this fraction of
+    /// the stability bound, in (0, 1]. Default none (steps as given).
+    pub substep_safety: Option<f64>,
 }
 
 impl Default for SolverSection {
     fn default() -> Self {
         SolverSection {
-            integrator: "symplectic_euler".into(),
+            integrator: IntegratorName::SymplecticEuler,
             dt: 1e-4,
             duration: 2.0,
             gravity: [0.0, -9.81, 0.0],
-            damping_model: "projected".into(),
+            damping_model: DampingName::Projected,
+            substep_safety: None,
         }
     }
 }
@@ -176,7 +297,7 @@ pub struct FractureSection {
 #[serde(deny_unknown_fields)]
 pub struct BodySection {
     /// `icosphere`, `cuboid`, `obj` or `cloth`.
-    pub shape: String,
+    pub shape: BodyShape,
     /// Cloth: particles across and down.
     #[serde(default)]
     pub resolution: Option<[usize; 2]>,
@@ -185,10 +306,10 @@ pub struct BodySection {
     pub width: Option<f64>,
     /// Cloth: `vertical` (default) or `horizontal`.
     #[serde(default)]
-    pub orientation: Option<String>,
+    pub orientation: Option<Orientation>,
     /// Cloth: `top_corners` (default), `top_edge` or `none`.
     #[serde(default)]
-    pub pin: Option<String>,
+    pub pin: Option<Pin>,
     /// Cloth shear springs, membrane stiffness [N/m]; none: no shear springs.
     #[serde(default)]
     pub shear: Option<f64>,
@@ -271,7 +392,7 @@ fn default_friction() -> f32 {
 #[serde(deny_unknown_fields)]
 pub struct ColliderSection {
     /// `ground`, `plane`, `ball`, `cuboid` or `capsule`.
-    pub shape: String,
+    pub shape: ColliderShape,
     /// Ground height [m].
     #[serde(default)]
     pub height: Option<f32>,
@@ -364,26 +485,33 @@ impl Scene {
         if !(self.solver.duration.is_finite() && self.solver.duration >= 0.0) {
             return Err(self.bad("solver.duration", format!("must be >= 0, got {}", self.solver.duration)));
         }
-        self.integrator()?;
-        if let Some(w) = self.fracture.averaged_window
-            && !(w.is_finite() && w > 0.0)
-        {
-            return Err(self.bad("fracture.averaged_window", format!("must be > 0, got {w}")));
+        if let Err(StepError::Config(m)) = self.solver_config().validate() {
+            return Err(self.bad("solver", m));
         }
+        self.fracture_config().validate().map_err(|e| self.core_error("fracture", e, &[]))?;
         Ok(())
     }
 
     /// The integrator named in `[solver]`.
     pub fn integrator(&self) -> Result<Integrator, SceneError> {
-        Integrator::ALL.iter().copied().find(|i| i.name() == self.solver.integrator).ok_or_else(|| {
-            self.bad(
-                "solver.integrator",
-                format!(
-                    "unknown integrator {:?}; one of symplectic_euler, velocity_verlet, rk4, implicit_euler",
-                    self.solver.integrator
-                ),
-            )
-        })
+        Ok(self.solver.integrator.into())
+    }
+
+    /// The solver settings of `[solver]` (checked by the core on the first step).
+    pub fn solver_config(&self) -> SolverConfig {
+        SolverConfig { substep_safety: self.solver.substep_safety, ..SolverConfig::with(self.solver.integrator.into()) }
+    }
+
+    /// A core error as a scene error naming the key: `prefix.name`, with the core's parameter names that differ
+    /// from the scene's keys renamed.
+    fn core_error(&self, prefix: &str, e: ModelError, rename: &[(&str, &str)]) -> SceneError {
+        match e {
+            ModelError::Parameter { name, value, expected } => {
+                let key = rename.iter().find(|(n, _)| *n == name).map_or(name, |(_, k)| k);
+                self.bad(format!("{prefix}.{key}"), format!("must be {expected}, got {value}"))
+            }
+            e => self.bad(prefix, e.to_string()),
+        }
     }
 
     /// The fracture settings.
@@ -405,19 +533,14 @@ impl Scene {
         let model_err =
             |e: Box<dyn std::error::Error + Send + Sync>| SceneError::Model { path: self.path.clone(), source: e };
         let mut b = ModelBuilder::new();
-        b.gravity(v3(self.solver.gravity));
-        b.damping_model(match self.solver.damping_model.as_str() {
-            "projected" => DampingModel::Projected,
-            "unprojected" => DampingModel::Unprojected,
-            other => {
-                return Err(
-                    self.bad("solver.damping_model", format!("unknown {other:?}; one of projected, unprojected"))
-                );
-            }
+        b.gravity(v3(self.solver.gravity)).map_err(|e| self.core_error("solver", e, &[]))?;
+        b.damping_model(match self.solver.damping_model {
+            DampingName::Projected => DampingModel::Projected,
+            DampingName::Unprojected => DampingModel::Unprojected,
         });
         for (k, body) in self.bodies.iter().enumerate() {
             let key = |f: &str| format!("body[{k}].{f}");
-            if body.shape == "cloth" {
+            if body.shape == BodyShape::Cloth {
                 self.add_cloth(&mut b, k, body)?;
                 continue;
             }
@@ -429,11 +552,11 @@ impl Scene {
                 ("shear", body.shear.is_some()),
             ] {
                 if v {
-                    return Err(self.bad(key(f), format!("applies to a cloth only, not a {}", body.shape)));
+                    return Err(self.bad(key(f), format!("applies to a cloth only, not a {:?}", body.shape)));
                 }
             }
-            let mesh = match body.shape.as_str() {
-                "icosphere" => {
+            let mesh = match body.shape {
+                BodyShape::Icosphere => {
                     let r = body.radius.ok_or_else(|| self.bad(key("radius"), "is required for an icosphere"))?;
                     if !(r.is_finite() && r > 0.0) {
                         return Err(self.bad(key("radius"), format!("must be > 0, got {r}")));
@@ -444,20 +567,17 @@ impl Scene {
                     }
                     Mesh::icosphere(r, sub)
                 }
-                "cuboid" => {
+                BodyShape::Cuboid => {
                     let h =
                         body.half_extents.ok_or_else(|| self.bad(key("half_extents"), "is required for a cuboid"))?;
                     Mesh::cuboid(v3(h), body.cells.unwrap_or(4).max(1))
                 }
-                "obj" => {
+                BodyShape::Obj => {
                     let f = body.file.as_ref().ok_or_else(|| self.bad(key("file"), "is required for an obj"))?;
                     let p = self.path.parent().unwrap_or(Path::new(".")).join(f);
                     Mesh::load_obj(&p, Some(1e-6)).map_err(|e| model_err(Box::new(e)))?
                 }
-                other => {
-                    return Err(self
-                        .bad(key("shape"), format!("unknown shape {other:?}; one of icosphere, cuboid, obj, cloth")));
-                }
+                BodyShape::Cloth => unreachable!("cloths are built above"),
             };
             let fracture = body.breakable();
             let opts = SoftBodyOptions {
@@ -465,54 +585,66 @@ impl Scene {
                 stiffness: Stiffness::Membrane(body.stiffness),
                 damping: Damping::Ratio(body.damping_ratio),
                 bending: body.bending.map(Stiffness::Membrane),
+                // 0: no gas; anything else goes to the core, which rejects NaN and negative pressures.
                 gas: match body.pressure.unwrap_or(2000.0) {
-                    p if p > 0.0 => Gas::Pressure(p),
-                    _ => Gas::None,
+                    0.0 => Gas::None,
+                    p => Gas::Pressure(p),
                 },
                 velocity: v3(body.velocity),
                 fracture,
                 ..Default::default()
             };
-            b.add_soft_body(&mesh.translated(v3(body.position)), &opts).map_err(|e| SceneError::Value {
-                path: self.path.clone(),
-                key: format!("body[{k}]"),
-                message: e.to_string(),
-            })?;
+            b.add_soft_body(&mesh.translated(v3(body.position)), &opts)
+                .map_err(|e| self.core_error(&format!("body[{k}]"), e, BODY_KEYS))?;
         }
         if let Some(h) = self.room_half_width {
             if !(h.is_finite() && h > 0.0) {
                 return Err(self.bad("room_half_width", format!("must be > 0, got {h}")));
             }
-            crate::scenes::room(&mut b, h);
+            crate::scenes::room(&mut b, h).map_err(|e| self.core_error("room_half_width", e, &[]))?;
         }
         for (k, c) in self.colliders.iter().enumerate() {
-            let key = |f: &str| format!("collider[{k}].{f}");
+            let prefix = format!("collider[{k}]");
+            let key = |f: &str| format!("{prefix}.{f}");
+            let given = [
+                ("height", c.height.is_some()),
+                ("point", c.point.is_some()),
+                ("normal", c.normal.is_some()),
+                ("center", c.center.is_some()),
+                ("radius", c.radius.is_some()),
+                ("half_extents", c.half_extents.is_some()),
+                ("a", c.a.is_some()),
+                ("b", c.b.is_some()),
+            ];
+            let (keys, position): (&[&str], &str) = match c.shape {
+                ColliderShape::Ground => (&["height"], "height"),
+                ColliderShape::Plane => (&["point", "normal"], "point"),
+                ColliderShape::Ball => (&["center", "radius"], "center"),
+                ColliderShape::Cuboid => (&["center", "half_extents"], "center"),
+                ColliderShape::Capsule => (&["a", "b", "radius"], "a"),
+            };
+            if let Some((f, _)) = given.iter().find(|(f, g)| *g && !keys.contains(f)) {
+                return Err(self.bad(key(f), format!("does not apply to a {}; remove the key", c.shape.name())));
+            }
             let need3 = |v: Option<[f32; 3]>, f: &str| {
-                v.map(f3).ok_or_else(|| self.bad(key(f), format!("is required for a {}", c.shape)))
+                v.map(f3).ok_or_else(|| self.bad(key(f), format!("is required for a {}", c.shape.name())))
             };
             let need = |v: Option<f32>, f: &str| {
-                let x = v.ok_or_else(|| self.bad(key(f), format!("is required for a {}", c.shape)))?;
-                if x.is_finite() && x > 0.0 { Ok(x) } else { Err(self.bad(key(f), format!("must be > 0, got {x}"))) }
+                v.ok_or_else(|| self.bad(key(f), format!("is required for a {}", c.shape.name())))
             };
-            let col = match c.shape.as_str() {
-                "ground" => Collider::ground(c.height.unwrap_or(0.0)),
-                "plane" => Collider::plane(need3(c.point, "point")?, need3(c.normal, "normal")?),
-                "ball" => Collider::ball(need3(c.center, "center")?, need(c.radius, "radius")?),
-                "cuboid" => Collider::cuboid(need3(c.center, "center")?, need3(c.half_extents, "half_extents")?),
-                "capsule" => Collider::capsule(need3(c.a, "a")?, need3(c.b, "b")?, need(c.radius, "radius")?),
-                other => {
-                    return Err(self.bad(
-                        key("shape"),
-                        format!("unknown shape {other:?}; one of ground, plane, ball, cuboid, capsule"),
-                    ));
+            let col = match c.shape {
+                ColliderShape::Ground => Collider::ground(c.height.unwrap_or(0.0)),
+                ColliderShape::Plane => Collider::plane(need3(c.point, "point")?, need3(c.normal, "normal")?),
+                ColliderShape::Ball => Collider::ball(need3(c.center, "center")?, need(c.radius, "radius")?),
+                ColliderShape::Cuboid => {
+                    Collider::cuboid(need3(c.center, "center")?, need3(c.half_extents, "half_extents")?)
+                }
+                ColliderShape::Capsule => {
+                    Collider::capsule(need3(c.a, "a")?, need3(c.b, "b")?, need(c.radius, "radius")?)
                 }
             };
-            for (f, v) in [("restitution", c.restitution), ("friction", c.friction)] {
-                if !(v.is_finite() && v >= 0.0) {
-                    return Err(self.bad(key(f), format!("must be >= 0, got {v}")));
-                }
-            }
-            b.add_collider(col.with_restitution(c.restitution).with_friction(c.friction));
+            b.add_collider(col.with_restitution(c.restitution).with_friction(c.friction))
+                .map_err(|e| self.core_error(&prefix, e, &[("position", position)]))?;
         }
         if let Some(w) = &self.wind {
             let d = WindField::default();
@@ -524,23 +656,7 @@ impl Scene {
                 crosswind: w.crosswind.unwrap_or(d.crosswind),
                 air_density: w.air_density.unwrap_or(d.air_density),
             };
-            for (f, v) in [
-                ("gust_amplitude", wind.gust_amplitude),
-                ("gust_frequency", wind.gust_frequency),
-                ("crosswind", wind.crosswind),
-                ("air_density", wind.air_density),
-            ] {
-                if !(v.is_finite() && v >= 0.0) {
-                    return Err(self.bad(format!("wind.{f}"), format!("must be >= 0, got {v}")));
-                }
-            }
-            if !(wind.gust_wavelength.is_finite() && wind.gust_wavelength > 0.0) {
-                return Err(self.bad("wind.gust_wavelength", format!("must be > 0, got {}", wind.gust_wavelength)));
-            }
-            if !wind.velocity.is_finite() {
-                return Err(self.bad("wind.velocity", "must be finite"));
-            }
-            b.wind(wind);
+            b.wind(wind).map_err(|e| self.core_error("wind", e, &[]))?;
         }
         Ok(b)
     }
@@ -551,10 +667,7 @@ impl Scene {
         if nx < 2 || ny < 2 || nx * ny > 4 << 20 {
             return Err(self.bad(key("resolution"), format!("needs 2..=2048 each way, got [{nx}, {ny}]")));
         }
-        let width = body.width.unwrap_or(1.0);
-        if !(width.is_finite() && width > 0.0) {
-            return Err(self.bad(key("width"), format!("must be > 0, got {width}")));
-        }
+        let width = body.width.unwrap_or(1.0); // the core checks the spacing it gives (reported as `width`)
         if body.pressure.is_some_and(|p| p != 0.0) {
             return Err(self.bad(key("pressure"), "an open cloth holds no gas; remove the key"));
         }
@@ -565,13 +678,7 @@ impl Scene {
         }
         let spacing = width / (nx - 1) as f64;
         let o = v3(body.position);
-        let vertical = match body.orientation.as_deref().unwrap_or("vertical") {
-            "vertical" => true,
-            "horizontal" => false,
-            other => {
-                return Err(self.bad(key("orientation"), format!("unknown {other:?}; one of vertical, horizontal")));
-            }
-        };
+        let vertical = body.orientation.unwrap_or_default() == Orientation::Vertical;
         let height = spacing * (ny - 1) as f64;
         let place = move |q: DVec3| {
             if vertical {
@@ -580,13 +687,10 @@ impl Scene {
                 o + DVec3::new(q.x - 0.5 * width, 0.0, -q.y - 0.5 * height)
             }
         };
-        let pins = match body.pin.as_deref().unwrap_or("top_corners") {
-            "top_corners" => vec![0, nx - 1],
-            "top_edge" => (0..nx).collect(),
-            "none" => Vec::new(),
-            other => {
-                return Err(self.bad(key("pin"), format!("unknown {other:?}; one of top_corners, top_edge, none")));
-            }
+        let pins = match body.pin.unwrap_or_default() {
+            Pin::TopCorners => vec![0, nx - 1],
+            Pin::TopEdge => (0..nx).collect(),
+            Pin::None => Vec::new(),
         };
         let opts = ClothOptions {
             mass: Mass::Total(body.mass),
@@ -601,11 +705,8 @@ impl Scene {
         if body.velocity != [0.0; 3] {
             return Err(self.bad(key("velocity"), "a cloth starts at rest; remove the key"));
         }
-        b.add_cloth_grid(nx, ny, spacing, place, &opts).map_err(|e| SceneError::Value {
-            path: self.path.clone(),
-            key: format!("body[{k}]"),
-            message: e.to_string(),
-        })?;
+        b.add_cloth_grid(nx, ny, spacing, place, &opts)
+            .map_err(|e| self.core_error(&format!("body[{k}]"), e, BODY_KEYS))?;
         Ok(())
     }
 
@@ -615,6 +716,6 @@ impl Scene {
             .builder()?
             .finalize::<R>()
             .map_err(|e| SceneError::Model { path: self.path.clone(), source: Box::new(e) })?;
-        Ok(World::new(model, SolverConfig::with(self.integrator()?)).with_fracture(self.fracture_config()))
+        Ok(World::new(model, self.solver_config()).with_fracture(self.fracture_config()))
     }
 }

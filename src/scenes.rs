@@ -40,26 +40,27 @@ pub fn ball_drop(p: &BallDrop) -> Result<ModelBuilder, ModelError> {
         ..Default::default()
     };
     b.add_soft_body(&Mesh::icosphere(p.radius, p.subdivisions).translated(DVec3::new(-0.3, p.height, -0.1)), &opts)?;
-    room(&mut b, p.room_half_width);
+    room(&mut b, p.room_half_width)?;
     for (c, r) in
         [(Vec3::new(0.15, 0.3, 0.0), 0.3), (Vec3::new(-0.7, 0.2, 0.5), 0.2), (Vec3::new(0.6, 0.15, -0.6), 0.15)]
     {
-        b.add_collider(Collider::ball(c, r).with_restitution(0.4).with_friction(0.3));
+        b.add_collider(Collider::ball(c, r).with_restitution(0.4).with_friction(0.3))?;
     }
     Ok(b)
 }
 
 /// A floor at y = 0 and four walls at `±half_width` in x and z.
-pub fn room(b: &mut ModelBuilder, half_width: f32) {
-    b.add_collider(Collider::ground(0.0).with_restitution(0.3).with_friction(0.5));
+pub fn room(b: &mut ModelBuilder, half_width: f32) -> Result<(), ModelError> {
+    b.add_collider(Collider::ground(0.0).with_restitution(0.3).with_friction(0.5))?;
     for (p, n) in [
         (Vec3::new(half_width, 0.0, 0.0), Vec3::NEG_X),
         (Vec3::new(-half_width, 0.0, 0.0), Vec3::X),
         (Vec3::new(0.0, 0.0, half_width), Vec3::NEG_Z),
         (Vec3::new(0.0, 0.0, -half_width), Vec3::Z),
     ] {
-        b.add_collider(Collider::plane(p, n).with_restitution(0.5).with_friction(0.2));
+        b.add_collider(Collider::plane(p, n).with_restitution(0.5).with_friction(0.2))?;
     }
+    Ok(())
 }
 
 /// The seed's Fig. 4: a cloth hanging from two corners in a gusty wind. `n × n` particles, 1 m wide.
@@ -78,8 +79,8 @@ pub fn cloth_wind(n: usize) -> Result<ModelBuilder, ModelError> {
     };
     // Vertical sheet in the XY plane, top edge at y = 1.5, facing the wind along +z.
     b.add_cloth_grid(n, n, spacing, |q| DVec3::new(q.x - 0.5, 1.5 + q.y, 0.0), &opts)?;
-    b.wind(WindField { velocity: DVec3::new(0.0, 0.0, 4.0), ..Default::default() });
-    b.add_collider(Collider::ground(0.0));
+    b.wind(WindField { velocity: DVec3::new(0.0, 0.0, 4.0), ..Default::default() })?;
+    b.add_collider(Collider::ground(0.0))?;
     Ok(b)
 }
 

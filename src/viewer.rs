@@ -22,7 +22,7 @@
 use crate::gpu::render::{Camera, Offscreen, Positions, Readback, Renderer, View, targets};
 use crate::gpu::{GpuError, wgpu};
 use crate::output::{OutputError, save_png};
-use crate::{FractureKind, Solver, Stage, StepError, World};
+use crate::{FractureKind, Stage, StepError, TopologyDelta, World};
 use glam::Vec3;
 use std::path::PathBuf;
 use std::sync::Arc;
@@ -359,11 +359,7 @@ impl App {
 
     fn puncture(&mut self, x: f32, y: f32) {
         let Some(v) = self.pick(x, y) else { return };
-        let w = &mut self.world;
-        let events = w.fracture.break_core(&mut w.model, &mut w.state, v);
-        if !events.is_empty() {
-            w.solver.notify_model_changed(&w.model);
-            w.events.extend(events);
+        if self.world.break_core(v).is_ok_and(|events| !events.is_empty()) {
             self.model_changed();
         }
     }
@@ -381,7 +377,7 @@ impl App {
         } else {
             m.wind = self.saved_wind.take();
         }
-        self.world.solver.notify_model_changed(&self.world.model);
+        self.world.solver.notify_model_changed(&self.world.model, &TopologyDelta::whole());
     }
 
     fn toggle_pressure(&mut self) {
@@ -394,7 +390,7 @@ impl App {
                 m.body_gas_amount.iter_mut().for_each(|g| *g = 0.0);
             }
         }
-        self.world.solver.notify_model_changed(&self.world.model);
+        self.world.solver.notify_model_changed(&self.world.model, &TopologyDelta::whole());
     }
 
     fn restart(&mut self) {
@@ -407,25 +403,24 @@ impl App {
         }
     }
 
-    /// One frame of simulation: substeps of at most `dt`, the mouse spring applied before each.
+    /// One frame of simulation through [`World::advance`], the mouse spring applied to the dragged particle's
+    /// velocity first: a critically damped spring `a = ω² (target - x) - 2ω v` integrated over the whole frame by
+    /// backward Euler, `v' = (v + h ω² (target - x)) / (1 + 2hω + h²ω²)`, which is stable at any frame time (the
+    /// explicit form per substep was, too, but needed a loop of its own around the world's steps).
     fn simulate(&mut self) -> Result<(), StepError> {
         let t0 = Instant::now();
         self.world.reset_timers();
-        let end = self.world.state.time + self.options.frame_time;
-        let mut changed = false;
-        while self.world.state.time < end - 1e-12 {
-            let h = self.dt.min(end - self.world.state.time);
-            if let Some(d) = &self.drag
-                && d.particle < self.world.state.particle_q.len()
-                && self.world.model.particle_inv_mass[d.particle] > 0.0
-            {
-                let (q, v) = (self.world.state.particle_q[d.particle], self.world.state.particle_qd[d.particle]);
-                let a = DRAG_OMEGA * DRAG_OMEGA * (d.target - q) - 2.0 * DRAG_OMEGA * v;
-                self.world.state.particle_qd[d.particle] = v + a * h as f32;
-            }
-            changed |= self.world.step(h)? > 0;
+        let h = self.options.frame_time as f32;
+        if let Some(d) = &self.drag
+            && d.particle < self.world.state.particle_q.len()
+            && self.world.model.particle_inv_mass[d.particle] > 0.0
+        {
+            let (q, v) = (self.world.state.particle_q[d.particle], self.world.state.particle_qd[d.particle]);
+            let (w, w2) = (DRAG_OMEGA * h, DRAG_OMEGA * DRAG_OMEGA * h);
+            self.world.state.particle_qd[d.particle] = (v + (d.target - q) * w2) / (1.0 + 2.0 * w + w * w);
+            self.world.solver.upload_state(&self.world.state)?;
         }
-        if changed {
+        if self.world.advance(self.options.frame_time, self.dt)?.topology_changed {
             self.model_changed();
         }
         self.sim_ms = t0.elapsed().as_secs_f64() * 1e3;

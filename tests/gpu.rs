@@ -173,14 +173,16 @@ fn ball_drop_trajectory_matches_the_cpu() {
 fn collisions_match_the_cpu_for_every_analytic_shape() {
     let Some(ctx) = gpu() else { return };
     let mut b = ModelBuilder::new();
-    b.add_collider(Collider::ground(0.0).with_restitution(0.5).with_friction(0.3));
-    b.add_collider(Collider::ball(Vec3::new(2.0, 0.5, 0.0), 0.4).with_margin(0.01));
+    b.add_collider(Collider::ground(0.0).with_restitution(0.5).with_friction(0.3)).unwrap();
+    b.add_collider(Collider::ball(Vec3::new(2.0, 0.5, 0.0), 0.4).with_margin(0.01)).unwrap();
     b.add_collider(
         Collider::cuboid(Vec3::new(-2.0, 0.5, 0.0), Vec3::new(0.3, 0.4, 0.5))
             .with_rotation(fissure::glam::Quat::from_rotation_y(0.4))
             .with_velocity(Vec3::new(0.2, 0.0, 0.0), Vec3::new(0.0, 1.0, 0.0)),
-    );
-    b.add_collider(Collider::capsule(Vec3::new(0.0, 0.5, 2.0), Vec3::new(0.5, 0.8, 2.0), 0.25).with_friction(0.8));
+    )
+    .unwrap();
+    b.add_collider(Collider::capsule(Vec3::new(0.0, 0.5, 2.0), Vec3::new(0.5, 0.8, 2.0), 0.25).with_friction(0.8))
+        .unwrap();
     let mut seed = 3;
     let centres =
         [DVec3::new(0.0, 0.0, 0.0), DVec3::new(2.0, 0.5, 0.0), DVec3::new(-2.0, 0.5, 0.0), DVec3::new(0.25, 0.65, 2.0)];
@@ -220,7 +222,7 @@ fn triangle_mesh_colliders_work_through_a_signed_distance_grid() {
     let mut b = ModelBuilder::new();
     let boxm = Mesh::cuboid(DVec3::new(0.5, 0.3, 0.4), 4);
     let col = Collider::trimesh(&boxm).unwrap().with_restitution(0.0);
-    b.add_collider(col.clone());
+    b.add_collider(col.clone()).unwrap();
     let mut seed = 11;
     let half = DVec3::new(0.5, 0.3, 0.4);
     for k in 0..300 {
@@ -232,7 +234,7 @@ fn triangle_mesh_colliders_work_through_a_signed_distance_grid() {
         b.add_particle(p, DVec3::ZERO, 0.01).unwrap();
     }
     let mut bb = b.clone();
-    bb.gravity(DVec3::ZERO);
+    bb.gravity(DVec3::ZERO).unwrap();
     let m: Model<f32> = bb.finalize().unwrap();
     let mut g = solver(&ctx, &m, Integrator::SymplecticEuler);
     g.run(&m, 1e-4, 1).unwrap();
@@ -300,7 +302,7 @@ fn fracture_candidates_match_the_cpu() {
     // And the springs the CPU fracture pass breaks are those.
     let mut f = Fracture::<f32>::new(FractureConfig { max_events_per_step: 1000, ..Default::default() });
     let events = f.apply(&mut m, &mut s, dt);
-    let mut broken: Vec<u32> = events.iter().filter_map(|e| e.spring).collect();
+    let mut broken: Vec<u32> = events.events.iter().filter_map(|e| e.spring).collect();
     broken.sort_unstable();
     assert_eq!(broken, expected);
 }
@@ -316,7 +318,7 @@ fn load_candidates_match_the_cpu() {
         ..Default::default()
     };
     b.add_soft_body(&Mesh::icosphere(0.25, 3), &opts).unwrap();
-    b.gravity(DVec3::ZERO);
+    b.gravity(DVec3::ZERO).unwrap();
     let mut m: Model<f32> = b.finalize().unwrap();
     let mut s = m.state();
     // Dent three far-apart vertices inwards: their springs pull them back hard.
@@ -355,7 +357,8 @@ fn load_candidates_match_the_cpu() {
     // The CPU fracture pass breaks the dents (their neighbours, now next to a hole, may not break in the same step).
     let mut f = Fracture::<f32>::new(FractureConfig { max_events_per_step: 1000, ..Default::default() });
     let events = f.apply(&mut m, &mut s, dt);
-    let cores: Vec<u32> = events.iter().filter(|e| e.kind == FractureKind::Core).filter_map(|e| e.vertex).collect();
+    let cores: Vec<u32> =
+        events.events.iter().filter(|e| e.kind == FractureKind::Core).filter_map(|e| e.vertex).collect();
     assert!(dents.iter().all(|d| cores.contains(d)), "CPU core events {cores:?}");
     assert!(cores.iter().all(|c| expected.contains(c)));
 }
@@ -406,36 +409,37 @@ fn fracture_runs_on_the_gpu_path_and_uploads_only_what_changed() {
         ..Default::default()
     };
     b.add_soft_body(&Mesh::icosphere(0.25, 4).translated(DVec3::new(0.0, 0.4, 0.0)), &opts).unwrap();
-    b.add_collider(Collider::ground(0.0));
+    b.add_collider(Collider::ground(0.0)).unwrap();
     let mut m: Model<f32> = b.finalize().unwrap();
     m.reserve(2000, 8000, 4000);
-    let mut s = m.state();
-    let mut f = Fracture::<f32>::new(FractureConfig { max_events_per_step: 4, start_time: 0.01, ..Default::default() });
-    let mut g = solver(&ctx, &m, Integrator::SymplecticEuler);
+    let fracture = FractureConfig { max_events_per_step: 4, start_time: 0.01, ..Default::default() };
+    let g = solver(&ctx, &m, Integrator::SymplecticEuler);
     let model_bytes =
         m.particle_count() * 16 + m.spring_count() * 32 + m.tri_count() * 16 + m.particle_springs.items.len() * 4;
-    let mut events = Vec::new();
+    // The one stepping path, on the GPU: fracture every 10 steps (read back only when the kernels flag a limit).
+    let mut w = World::with_solver(m, Box::new(g)).with_fracture(fracture);
+    w.fracture_every = 10;
     let mut uploads = Vec::new();
     let mut v0 = None;
     for _ in 0..300 {
-        let e = g.advance_with_fracture(&mut m, &mut s, &mut f, 5e-5, 10).unwrap();
-        if !e.is_empty() {
-            uploads.push(g.last_upload_bytes());
-            check_invariants(&m).unwrap();
-            // Volume right after the first puncture (the state was read back for it).
-            v0.get_or_insert(m.body_volumes(&s)[0]);
+        let adv = w.advance(10.0 * 5e-5, 5e-5).unwrap();
+        assert_eq!(adv.steps, 10);
+        if !adv.events.is_empty() {
+            uploads.push(w.gpu_solver().unwrap().last_upload_bytes());
+            check_invariants(&w.model).unwrap();
+            // Volume right after the first puncture.
+            v0.get_or_insert(w.model.body_volumes(&w.state)[0]);
         }
-        events.extend(e);
     }
     let v0 = v0.expect("a puncture");
-    g.read_state(&mut s).unwrap();
+    let (m, s, events) = (&w.model, &w.state, &w.events);
     assert!(!events.is_empty(), "nothing broke");
     assert!(s.particle_q.iter().all(|q| q.is_finite()));
     assert!(s.particle_q.iter().all(|q| q.y > -1e-3), "a particle went through the ground");
     let first = uploads[0];
     eprintln!("{} events; first upload {first} bytes of a {model_bytes}-byte model", events.len());
     assert!(first * 10 < model_bytes, "an event uploaded {first} of {model_bytes} bytes");
-    let v1 = m.body_volumes(&s)[0];
+    let v1 = m.body_volumes(s)[0];
     assert!(v1 < v0, "the punctured ball should shrink: {v0} -> {v1}");
 }
 
@@ -475,7 +479,7 @@ fn renderer_draws_where_the_camera_projects_and_both_position_sources_agree() {
     let mut b = ModelBuilder::new();
     let ball = Mesh::icosphere(0.3, 3).translated(DVec3::new(0.0, 0.5, 0.0));
     b.add_soft_body(&ball, &SoftBodyOptions::default()).unwrap();
-    b.add_collider(Collider::ground(0.0));
+    b.add_collider(Collider::ground(0.0)).unwrap();
     let model: Model<f32> = b.finalize().unwrap();
     let state = model.state();
     let mut r = Renderer::new(&ctx.device, &ctx.queue, Offscreen::FORMAT);

@@ -98,18 +98,14 @@ fn punctured_ball_f64_run_is_bit_identical() {
         ..Default::default()
     };
     b.add_soft_body(&ball, &opts).unwrap();
-    b.add_collider(Collider::ground(0.0));
+    b.add_collider(Collider::ground(0.0)).unwrap();
     let model: Model<f64> = b.finalize().unwrap();
     let mut w = World::new(model, SolverConfig::with(Integrator::VelocityVerlet));
     w.advance(0.02, 1e-4).unwrap();
     for v in [5, 300] {
-        let ev = w.fracture.break_core(&mut w.model, &mut w.state, v);
-        assert!(!ev.is_empty(), "vertex {v} breaks");
-        w.events.extend(ev);
+        assert!(!w.break_core(v).unwrap().is_empty(), "vertex {v} breaks");
     }
-    let ev = w.fracture.break_spring(&mut w.model, &mut w.state, 100);
-    w.events.extend(ev);
-    w.solver.notify_model_changed(&w.model);
+    w.break_spring(100).unwrap();
     w.advance(0.2, 1e-4).unwrap();
     let h = hash_world(&w);
     check("punctured ball", h, 0x78e1_ef56_ca9a_2d86);

@@ -4,7 +4,7 @@ use fissure::gpu::{GpuConfig, GpuContext, GpuSolver};
 use fissure::mesh::{write_obj, write_ply};
 use fissure::output::{FrameRenderer, Frames};
 use fissure::scene::Scene;
-use fissure::{FractureEvent, FractureKind, Model, Stage, StageTimers, State, World};
+use fissure::{FractureKind, Model, Stage, StageTimers, State, World};
 use std::io::{IsTerminal, Write};
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -17,6 +17,8 @@ pub struct RunConfig {
     pub fps: f64,
     pub out: Option<PathBuf>,
     pub gpu: bool,
+    /// Steps between two fracture passes (`World::fracture_every`), on either backend.
+    pub fracture_every: usize,
     pub size: [u32; 2],
     pub gif: bool,
     pub png: bool,
@@ -41,6 +43,8 @@ usage: fissure run SCENE [--frames N] [--fps F] [--out DIR] [--backend cpu|gpu] 
   --out DIR         output folder (default target/fissure-run/<scene name>)
   --backend B       cpu (default; every integrator, fracture) or gpu (symplectic Euler or velocity
                     Verlet kernels; drawn straight from the GPU's position buffer)
+  --fracture-every N  steps between two fracture passes, on either backend (default 1: every step;
+                    larger reads a GPU's state back less often, and fractures are noticed later)
   --size WxH        frame size in pixels (default 640x360)
   --mesh obj|ply    also write each frame's surface mesh
   --no-gif          no GIF; --no-png: no PNG frames
@@ -66,6 +70,7 @@ pub fn parse(args: &[String]) -> Result<RunConfig, String> {
         fps: 30.0,
         out: None,
         gpu: false,
+        fracture_every: 1,
         size: [640, 360],
         gif: true,
         png: true,
@@ -89,6 +94,13 @@ pub fn parse(args: &[String]) -> Result<RunConfig, String> {
                 }
             }
             "--out" => cfg.out = Some(value("--out")?.into()),
+            "--fracture-every" => {
+                cfg.fracture_every =
+                    value("--fracture-every")?.parse().map_err(|e| format!("--fracture-every: {e}"))?;
+                if cfg.fracture_every == 0 {
+                    return Err("--fracture-every: must be at least 1".into());
+                }
+            }
             "--backend" => {
                 cfg.gpu = match value("--backend")?.as_str() {
                     "cpu" => false,
@@ -114,12 +126,6 @@ pub fn parse(args: &[String]) -> Result<RunConfig, String> {
     }
     cfg.scene = scene.ok_or("which scene? e.g. fissure run scenes/fracture.toml")?;
     Ok(cfg)
-}
-
-/// The stepping side: the CPU world, or the GPU solver with the CPU's fracture pass.
-enum Backend {
-    Cpu,
-    Gpu(Box<GpuSolver>),
 }
 
 struct Progress {
@@ -215,22 +221,19 @@ pub fn run(cfg: &RunConfig) -> Result<RunSummary, Box<dyn std::error::Error>> {
     );
 
     // The device: the GPU backend needs one; the CPU backend only to draw.
-    let (mut backend, renderer, adapter) = if cfg.gpu {
+    let (renderer, adapter) = if cfg.gpu {
         let ctx = GpuContext::new().map_err(|e| format!("--backend gpu: {e}"))?;
-        let gpu = GpuSolver::new(
-            ctx.device.clone(),
-            ctx.queue.clone(),
-            &world.model,
-            GpuConfig { integrator: world.solver.config.integrator, ..Default::default() },
-        )?;
+        let config = GpuConfig { integrator: scene.integrator()?, ..Default::default() };
+        world.solver = Box::new(GpuSolver::new(ctx.device.clone(), ctx.queue.clone(), &world.model, config)?);
         let adapter = ctx.describe();
         let r = FrameRenderer::with_context(ctx, cfg.size[0], cfg.size[1], &world.model, &world.state);
-        (Backend::Gpu(Box::new(gpu)), Ok(r), Some(adapter))
+        (Ok(r), Some(adapter))
     } else {
         let r = FrameRenderer::new(cfg.size[0], cfg.size[1], &world.model, &world.state);
         let adapter = r.as_ref().ok().map(|r| r.ctx.describe());
-        (Backend::Cpu, r, adapter)
+        (r, adapter)
     };
+    world.fracture_every = cfg.fracture_every;
     let backend_name = if cfg.gpu { "gpu" } else { "cpu" };
     let mut out_frames = Frames::with_renderer(&out, renderer, cfg.size[0], cfg.size[1])?;
     if cfg.gif {
@@ -261,42 +264,15 @@ pub fn run(cfg: &RunConfig) -> Result<RunSummary, Box<dyn std::error::Error>> {
     let wall = Instant::now();
     world.reset_timers();
     for frame in 1..=frames {
-        let end = frame as f64 * frame_dt;
-        let mut changed = false;
-        match &mut backend {
-            Backend::Cpu => {
-                while world.state.time < end - 1e-12 {
-                    let h = dt.min(end - world.state.time);
-                    changed |= world.step(h)? > 0;
-                }
-            }
-            Backend::Gpu(gpu) => {
-                let span = end - gpu.time();
-                if span > 1e-12 {
-                    let steps = (span / dt).ceil().max(1.0) as usize;
-                    let events: Vec<FractureEvent> = gpu.advance_with_fracture(
-                        &mut world.model,
-                        &mut world.state,
-                        &mut world.fracture,
-                        span / steps as f64,
-                        steps,
-                    )?;
-                    changed = !events.is_empty();
-                    world.events.extend(events);
-                    world.state.time = gpu.time();
-                }
-                if cfg.mesh.is_some() {
-                    gpu.read_state(&mut world.state)?;
-                }
-            }
-        }
-        if changed {
+        // One stepping path (World::advance) for both backends: the same steps, fracture at the same cadence.
+        let span = frame as f64 * frame_dt - world.state.time;
+        if span > 1e-12 && world.advance(span, dt)?.topology_changed {
             out_frames.model_changed(&world.model, world.state.time);
         }
         let text = overlay(&scene, &world, backend_name);
-        match &backend {
-            Backend::Gpu(gpu) => out_frames.capture_buffer(gpu.position_buffer(), &text)?,
-            Backend::Cpu => out_frames.capture(&world.model, &world.state, &text)?,
+        match world.gpu_solver() {
+            Some(gpu) => out_frames.capture_buffer(gpu.position_buffer(), &text)?,
+            None => out_frames.capture(&world.model, &world.state, &text)?,
         };
         if let Some(f) = cfg.mesh {
             export_mesh(&out, frame, f, &world.model, &world.state)?;
@@ -304,14 +280,11 @@ pub fn run(cfg: &RunConfig) -> Result<RunSummary, Box<dyn std::error::Error>> {
         }
         progress.show(frame, world.state.time, world.events.len());
     }
-    if let Backend::Gpu(gpu) = &mut backend {
-        gpu.read_state(&mut world.state)?;
-    }
     let pngs = out_frames.written().to_vec();
     let gif = out_frames.finish()?;
     let summary =
         RunSummary { world, frames, wall: wall.elapsed().as_secs_f64(), pngs, gif, meshes, not_drawn, adapter };
-    print_summary(&scene, cfg, &summary, &backend);
+    print_summary(&scene, cfg, &summary);
     Ok(summary)
 }
 
@@ -324,7 +297,7 @@ fn stage_line(t: &StageTimers) -> String {
         .join(", ")
 }
 
-fn print_summary(scene: &Scene, cfg: &RunConfig, s: &RunSummary, backend: &Backend) {
+fn print_summary(scene: &Scene, cfg: &RunConfig, s: &RunSummary) {
     let w = &s.world;
     let count = |k: FractureKind| w.events.iter().filter(|e| e.kind == k).count();
     let com = w.model.center_of_mass(&w.state);
@@ -357,9 +330,7 @@ fn print_summary(scene: &Scene, cfg: &RunConfig, s: &RunSummary, backend: &Backe
         let v: f64 = w.model.body_volumes(&w.state).iter().sum();
         println!("| gas volume | {:.3} l |", v * 1e3);
     }
-    if let Backend::Cpu = backend {
-        println!("| stage times | {} |", stage_line(&w.timers()));
-    }
+    println!("| stage times | {} |", stage_line(&w.timers()));
     match (&s.not_drawn, s.pngs.len()) {
         (Some(why), _) => println!("| pictures | none: {why} |"),
         (None, n) => {

@@ -11,7 +11,7 @@
 //! parry3d works in `f32`; with an `f64` model the query point is rounded to `f32` and only contacts are
 //! affected by that rounding. The accuracy references have no colliders.
 
-use crate::error::MeshError;
+use crate::error::{MeshError, ModelError};
 use crate::mesh::Mesh;
 use glam::{Quat, Vec3};
 use parry3d::bounding_volume::{Aabb, BoundingVolume};
@@ -74,9 +74,10 @@ impl Collider {
         Self::plane(Vec3::new(0.0, height, 0.0), Vec3::Y)
     }
 
-    /// The half-space behind the plane through `point` with outward `normal` (a wall).
+    /// The half-space behind the plane through `point` with outward `normal` (a wall). A zero or non-finite
+    /// normal gives a collider that [`Collider::validate`] (and so `ModelBuilder::add_collider`) rejects.
     pub fn plane(point: Vec3, normal: Vec3) -> Self {
-        Self::new(SharedShape::halfspace(normal.normalize()), Pose::from_translation(point))
+        Self::new(SharedShape::halfspace(normal.normalize_or_zero()), Pose::from_translation(point))
     }
 
     /// A solid ball.
@@ -107,6 +108,63 @@ impl Collider {
         let shape = SharedShape::trimesh_with_flags(verts, m.triangles().to_vec(), TriMeshFlags::ORIENTED)
             .map_err(|e| MeshError::Io { path: "<trimesh collider>".into(), message: format!("{e:?}") })?;
         Ok(Self::new(shape, Pose::IDENTITY))
+    }
+
+    /// Checks every value: shape sizes finite and positive (`radius`, `half_extents`), a unit `normal`, finite
+    /// `position`, `rotation`, `velocity` and capsule ends (`a`, `b`), `restitution` in [0, 1], `friction` and
+    /// `margin` finite and ≥ 0. The error's parameter name is the one a scene file or Python uses.
+    pub fn validate(&self) -> Result<(), ModelError> {
+        fn bad(name: &'static str, value: f32, expected: &'static str) -> Result<(), ModelError> {
+            Err(ModelError::Parameter { name, value: value as f64, expected })
+        }
+        let pos = |x: f32| x.is_finite() && x > 0.0;
+        let s = &self.shape;
+        if let Some(h) = s.as_halfspace() {
+            let n = h.normal.length();
+            if !(n.is_finite() && (n - 1.0).abs() < 1e-3) {
+                return bad("normal", n, "a finite nonzero vector (its length is shown)");
+            }
+        } else if let Some(b) = s.as_ball() {
+            if !pos(b.radius) {
+                return bad("radius", b.radius, "finite and > 0 [m]");
+            }
+        } else if let Some(c) = s.as_cuboid() {
+            if let Some(&x) = c.half_extents.to_array().iter().find(|x| !pos(**x)) {
+                return bad("half_extents", x, "finite and > 0 [m]");
+            }
+        } else if let Some(c) = s.as_capsule() {
+            if !pos(c.radius) {
+                return bad("radius", c.radius, "finite and > 0 [m]");
+            }
+            if !c.segment.a.is_finite() {
+                return bad("a", f32::NAN, "finite [m]");
+            }
+            if !c.segment.b.is_finite() {
+                return bad("b", f32::NAN, "finite [m]");
+            }
+        }
+        if !self.pose.translation.is_finite() {
+            return bad("position", f32::NAN, "finite [m]");
+        }
+        if !self.pose.rotation.is_finite() || (self.pose.rotation.length() - 1.0).abs() > 1e-3 {
+            return bad("rotation", self.pose.rotation.length(), "a finite unit quaternion");
+        }
+        if !self.linear_velocity.is_finite() || !self.angular_velocity.is_finite() {
+            return bad("velocity", f32::NAN, "finite [m/s, rad/s]");
+        }
+        if !(0.0..=1.0).contains(&self.restitution) {
+            return bad("restitution", self.restitution, "in [0, 1]");
+        }
+        for (name, v) in [
+            ("friction", self.friction),
+            ("margin", self.margin),
+            ("restitution_threshold", self.restitution_threshold),
+        ] {
+            if !(v.is_finite() && v >= 0.0) {
+                return bad(name, v, "finite and >= 0");
+            }
+        }
+        Ok(())
     }
 
     /// Sets restitution.

@@ -181,7 +181,7 @@ fn blow_up_cause(dt: f64, stable_dt: f64) -> String {
         )
     } else if dt > stable_dt {
         format!(
-            "the time step {dt:e} s is {:.3}× the springs' stability bound {stable_dt:e} s: take substeps (or set `SolverConfig::substep_safety`), use the implicit integrator, or soften the springs",
+            "the time step {dt:e} s is {:.3}× the springs' stability bound {stable_dt:e} s: take substeps (the substep safety setting: `solver.substep_safety` in a scene file, `substep_safety=` in Python, `SolverConfig::substep_safety` in Rust), use the implicit integrator, or soften the springs",
             dt / stable_dt
         )
     } else {

@@ -47,12 +47,13 @@ fn steps_do_not_allocate() {
         &ClothOptions { pins: vec![0, 19], ..Default::default() },
     )
     .unwrap();
-    b.wind(WindField::default());
-    b.add_collider(Collider::ground(0.0));
-    b.add_collider(Collider::ball(Vec3::new(0.0, 0.2, 0.0), 0.1));
-    b.add_collider(Collider::cuboid(Vec3::new(0.5, 0.1, 0.0), Vec3::splat(0.1)));
-    b.add_collider(Collider::capsule(Vec3::ZERO, Vec3::X, 0.05));
-    b.add_collider(Collider::trimesh(&Mesh::icosphere(0.1, 1).translated(DVec3::new(-0.5, 0.1, 0.0))).unwrap());
+    b.wind(WindField::default()).unwrap();
+    b.add_collider(Collider::ground(0.0)).unwrap();
+    b.add_collider(Collider::ball(Vec3::new(0.0, 0.2, 0.0), 0.1)).unwrap();
+    b.add_collider(Collider::cuboid(Vec3::new(0.5, 0.1, 0.0), Vec3::splat(0.1))).unwrap();
+    b.add_collider(Collider::capsule(Vec3::ZERO, Vec3::X, 0.05)).unwrap();
+    b.add_collider(Collider::trimesh(&Mesh::icosphere(0.1, 1).translated(DVec3::new(-0.5, 0.1, 0.0))).unwrap())
+        .unwrap();
     let model: Model<f32> = b.finalize().unwrap();
     for integrator in Integrator::ALL {
         let mut s = model.state();

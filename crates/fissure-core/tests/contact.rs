@@ -9,7 +9,7 @@ fn point_mass_bounces_according_to_restitution() {
         let mut b = ModelBuilder::new();
         let h0 = 1.0;
         b.add_particle(DVec3::new(0.0, h0, 0.0), DVec3::ZERO, 0.1).unwrap();
-        b.add_collider(Collider::ground(0.0).with_restitution(e).with_friction(0.0));
+        b.add_collider(Collider::ground(0.0).with_restitution(e).with_friction(0.0)).unwrap();
         let model: Model<f64> = b.finalize().unwrap();
         let mut s = model.state();
         let mut solver = CpuSolver::<f64>::default();
@@ -46,7 +46,7 @@ fn ball_scene(colliders: Vec<Collider>, x0: DVec3, v0: DVec3) -> Model<f32> {
     };
     b.add_soft_body(&Mesh::icosphere(0.2, 3).translated(x0), &opts).unwrap();
     for c in colliders {
-        b.add_collider(c);
+        b.add_collider(c).unwrap();
     }
     b.finalize().unwrap()
 }
@@ -138,13 +138,14 @@ fn no_particle_is_left_inside_any_collider_shape() {
 fn moving_collider_pushes_particles_with_its_velocity() {
     // A plate moving up at 1 m/s lifts a resting particle: after contact the particle moves with it.
     let mut b = ModelBuilder::new();
-    b.gravity(DVec3::ZERO);
+    b.gravity(DVec3::ZERO).unwrap();
     b.add_particle(DVec3::new(0.0, 0.5, 0.0), DVec3::ZERO, 0.1).unwrap();
     b.add_collider(
         Collider::cuboid(Vec3::new(0.0, -0.1, 0.0), Vec3::new(1.0, 0.1, 1.0))
             .with_velocity(Vec3::new(0.0, 1.0, 0.0), Vec3::ZERO)
             .with_restitution(0.0),
-    );
+    )
+    .unwrap();
     let model: Model<f32> = b.finalize().unwrap();
     let mut s = model.state();
     let mut solver = CpuSolver::<f32>::default();
@@ -161,7 +162,7 @@ fn friction_stops_a_sliding_particle_as_coulomb_predicts() {
     // v0 = 2 m/s along the ground with μ = 0.5: it stops after v0²/(2 μ g) = 0.4077 m.
     let mut b = ModelBuilder::new();
     b.add_particle(DVec3::new(0.0, 0.0, 0.0), DVec3::new(2.0, 0.0, 0.0), 0.1).unwrap();
-    b.add_collider(Collider::ground(0.0).with_friction(0.5).with_restitution(0.0));
+    b.add_collider(Collider::ground(0.0).with_friction(0.5).with_restitution(0.0)).unwrap();
     let model: Model<f64> = b.finalize().unwrap();
     let mut s = model.state();
     let mut solver = CpuSolver::<f64>::default();
@@ -187,7 +188,7 @@ fn cloth_pinned_at_two_corners_hangs_from_them() {
     // Horizontal sheet at y = 1 (grid rows along -z).
     let h = b.add_cloth_grid(n, n, spacing, |p| DVec3::new(p.x, 1.0, p.y), &opts).unwrap();
     // Still air: its drag is what stops the swinging (spring damping does not damp a rigid swing).
-    b.wind(WindField::steady(DVec3::ZERO));
+    b.wind(WindField::steady(DVec3::ZERO)).unwrap();
     let model: Model<f32> = b.finalize().unwrap();
     let mut s = model.state();
     let pins0 = [s.particle_q[0], s.particle_q[n - 1]];

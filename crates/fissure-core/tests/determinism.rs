@@ -24,9 +24,9 @@ fn scene() -> Model<f32> {
         &ClothOptions { pins: vec![0, 47], mass: Mass::PerParticle(1e-3), ..Default::default() },
     )
     .unwrap();
-    b.wind(WindField::default());
-    b.add_collider(Collider::ground(0.0));
-    b.add_collider(Collider::ball(Vec3::new(0.1, 0.1, 0.0), 0.15));
+    b.wind(WindField::default()).unwrap();
+    b.add_collider(Collider::ground(0.0)).unwrap();
+    b.add_collider(Collider::ball(Vec3::new(0.1, 0.1, 0.0), 0.15)).unwrap();
     b.finalize().unwrap()
 }
 
@@ -69,7 +69,7 @@ fn spring_run_kernel_matches_the_gather_kernel() {
     let mut b = ModelBuilder::new();
     let opts = ClothOptions { mass: Mass::PerParticle(1e-3), pins: vec![0, 63], ..Default::default() };
     b.add_cloth_grid(64, 64, 0.01, |p| DVec3::new(p.x, 1.0, p.y), &opts).unwrap();
-    b.wind(WindField::default());
+    b.wind(WindField::default()).unwrap();
     let runs: Model<f32> = b.finalize().unwrap();
     assert!(runs.springs_are_runs(), "{} runs for {} springs", runs.spring_runs.len(), runs.spring_count());
     let mut gather = runs.clone();

@@ -71,10 +71,10 @@ fn run_sequence(shape: Shape, ops: &[(bool, u64)], seed: u64) -> Result<(), Test
     for &(core, pick) in ops {
         let events = if core {
             let v = (pick % m.particle_count() as u64) as usize;
-            f.break_core(&mut m, &mut s, v)
+            f.break_core(&mut m, &mut s, v).events
         } else {
             let sp = (pick % m.spring_count() as u64) as usize;
-            f.break_spring(&mut m, &mut s, sp)
+            f.break_spring(&mut m, &mut s, sp).events
         };
         if let Err(e) = check_invariants(&m) {
             return Err(TestCaseError::fail(format!("{shape:?} after {events:?}: {e}")));
@@ -123,7 +123,7 @@ proptest! {
 fn a_torn_sheet_detaches_its_lower_half() {
     let n = 12;
     let mut b = ModelBuilder::new();
-    b.gravity(DVec3::ZERO);
+    b.gravity(DVec3::ZERO).unwrap();
     let opts = ClothOptions {
         pins: (0..n).collect(),
         fracture: Some(Breakable { strain_limit: 0.3, ..Default::default() }),
@@ -142,9 +142,9 @@ fn a_torn_sheet_detaches_its_lower_half() {
     let mut events = Vec::new();
     for _ in 0..4000 {
         solver.step(&m, &mut s, 2e-5).unwrap();
-        let e = f.apply(&mut m, &mut s, 2e-5);
+        let e = f.apply(&mut m, &mut s, 2e-5).events;
         if !e.is_empty() {
-            solver.notify_model_changed(&m);
+            solver.notify_model_changed(&m, &TopologyDelta::whole());
         }
         check_invariants(&m).unwrap();
         events.extend(e);
@@ -164,7 +164,7 @@ fn a_torn_sheet_detaches_its_lower_half() {
 
 fn balloon(sealed: bool) -> (Model<f64>, State<f64>) {
     let mut b = ModelBuilder::new();
-    b.gravity(DVec3::ZERO);
+    b.gravity(DVec3::ZERO).unwrap();
     let opts = SoftBodyOptions {
         gas: Gas::Pressure(2000.0),
         stiffness: Stiffness::Membrane(500.0),
@@ -186,7 +186,7 @@ fn a_core_block_breaks_out_and_leaves_a_capped_opening() {
     let mass0 = exact_mass(&m);
     let v0 = m.body_volumes(&s)[0];
     let mut f = Fracture::<f64>::default();
-    let ev = f.break_core(&mut m, &mut s, 7);
+    let ev = f.break_core(&mut m, &mut s, 7).events;
     assert_eq!(ev.len(), 1);
     assert_eq!(ev[0].kind, FractureKind::Core);
     check_invariants(&m).unwrap();
@@ -231,10 +231,10 @@ fn a_punctured_balloon_leaks_and_shrinks_unless_sealed() {
         let v0 = m.body_volumes(&s)[0];
         // Punctures at the icosahedron's twelve vertices, far apart.
         for v in 0..12 {
-            assert!(!f.break_core(&mut m, &mut s, v).is_empty());
+            assert!(!f.break_core(&mut m, &mut s, v).events.is_empty());
         }
         assert_eq!(m.openings.len(), 12);
-        solver.notify_model_changed(&m);
+        solver.notify_model_changed(&m, &TopologyDelta::whole());
         check_invariants(&m).unwrap();
         let mut vols = vec![v0];
         for k in 0..10000 {
@@ -264,7 +264,7 @@ fn a_punctured_balloon_leaks_and_shrinks_unless_sealed() {
 fn the_averaged_trigger_needs_a_sustained_overload() {
     let build = || {
         let mut b = ModelBuilder::new();
-        b.gravity(DVec3::ZERO);
+        b.gravity(DVec3::ZERO).unwrap();
         let opts = ClothOptions {
             fracture: Some(Breakable { strain_limit: 0.2, ..Default::default() }),
             shear: None,
@@ -285,22 +285,22 @@ fn the_averaged_trigger_needs_a_sustained_overload() {
     let mut s = m.state();
     let mut f = Fracture::<f64>::default();
     stretch(&mut s, 1.5);
-    assert!(!f.apply(&mut m, &mut s, dt).is_empty());
+    assert!(!f.apply(&mut m, &mut s, dt).events.is_empty());
     // Averaged over 20 ms: one stretched step does not, twenty back-to-back do.
     let cfg = FractureConfig { trigger: Trigger::Averaged { window: 0.02 }, ..Default::default() };
     let mut m = build();
     let mut s = m.state();
     let mut f = Fracture::<f64>::new(cfg);
     stretch(&mut s, 1.5);
-    assert!(f.apply(&mut m, &mut s, dt).is_empty());
+    assert!(f.apply(&mut m, &mut s, dt).events.is_empty());
     stretch(&mut s, 1.0);
     for _ in 0..50 {
-        assert!(f.apply(&mut m, &mut s, dt).is_empty());
+        assert!(f.apply(&mut m, &mut s, dt).events.is_empty());
     }
     stretch(&mut s, 1.5);
     let mut broke_at = None;
     for k in 0..100 {
-        if !f.apply(&mut m, &mut s, dt).is_empty() {
+        if !f.apply(&mut m, &mut s, dt).events.is_empty() {
             broke_at = Some(k);
             break;
         }
@@ -324,8 +324,8 @@ fn fracture_is_deterministic_across_thread_counts() {
                 ..Default::default()
             };
             b.add_soft_body(&Mesh::icosphere(0.2, 3).translated(DVec3::new(0.0, 0.25, 0.0)), &opts).unwrap();
-            b.add_collider(Collider::ground(0.0));
-            b.add_collider(Collider::ball(fissure_core::glam::Vec3::new(0.05, 0.0, 0.0), 0.06));
+            b.add_collider(Collider::ground(0.0)).unwrap();
+            b.add_collider(Collider::ball(fissure_core::glam::Vec3::new(0.05, 0.0, 0.0), 0.06)).unwrap();
             let m: Model<f32> = b.finalize().unwrap();
             let mut w_model = m;
             let mut s = w_model.state();
@@ -334,9 +334,9 @@ fn fracture_is_deterministic_across_thread_counts() {
             let mut events = Vec::new();
             for _ in 0..1500 {
                 solver.step(&w_model, &mut s, 5e-5).unwrap();
-                let e = f.apply(&mut w_model, &mut s, 5e-5);
+                let e = f.apply(&mut w_model, &mut s, 5e-5).events;
                 if !e.is_empty() {
-                    solver.notify_model_changed(&w_model);
+                    solver.notify_model_changed(&w_model, &TopologyDelta::whole());
                 }
                 events.extend(e);
             }
@@ -362,7 +362,7 @@ fn no_fracture_work_without_breakable_springs() {
     let mut s = m.state();
     let mut f = Fracture::<f32>::default();
     for _ in 0..10 {
-        assert!(f.apply(&mut m, &mut s, 1e-4).is_empty());
+        assert!(f.apply(&mut m, &mut s, 1e-4).events.is_empty());
     }
     assert_eq!(f.timers().calls(Stage::Fracture), 0);
     // Breakable but unbroken: the checks run (and are timed).
@@ -373,7 +373,7 @@ fn no_fracture_work_without_breakable_springs() {
     let mut m: Model<f32> = b.finalize().unwrap();
     let mut s = m.state();
     for _ in 0..10 {
-        assert!(f.apply(&mut m, &mut s, 1e-4).is_empty());
+        assert!(f.apply(&mut m, &mut s, 1e-4).events.is_empty());
     }
     assert_eq!(f.timers().calls(Stage::Fracture), 10);
 }

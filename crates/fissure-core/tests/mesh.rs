@@ -236,7 +236,7 @@ fn membrane_stiffness_is_resolution_independent() {
     // Stretch two resolutions of the same square sheet by 1% along x; the total force needed matches.
     let force_for = |n: usize| {
         let mut b = ModelBuilder::new();
-        b.gravity(DVec3::ZERO);
+        b.gravity(DVec3::ZERO).unwrap();
         let opts =
             ClothOptions { stiffness: Stiffness::Membrane(100.0), shear: None, bending: None, ..Default::default() };
         b.add_cloth_grid(n, n, 1.0 / (n - 1) as f64, |p| p, &opts).unwrap();

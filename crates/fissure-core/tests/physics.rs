@@ -9,7 +9,7 @@ use fissure_core::*;
 /// A mass `m` on a spring `k` to a pinned anchor, displaced by `amp` along x; no gravity, no damping.
 fn oscillator(m: f64, k: f64, amp: f64) -> (Model<f64>, State<f64>, f64) {
     let mut b = ModelBuilder::new();
-    b.gravity(DVec3::ZERO);
+    b.gravity(DVec3::ZERO).unwrap();
     let l0 = 1.0;
     let anchor = b.add_particle(DVec3::ZERO, DVec3::ZERO, 0.0).unwrap();
     let mass = b.add_particle(DVec3::new(l0, 0.0, 0.0), DVec3::ZERO, m).unwrap();
@@ -96,7 +96,7 @@ fn free_fall_matches_closed_form() {
     let (x0, v0) = (DVec3::new(0.0, 10.0, 0.0), DVec3::new(1.0, 2.0, -0.5));
     for integrator in Integrator::ALL {
         let mut b = ModelBuilder::new();
-        b.gravity(g);
+        b.gravity(g).unwrap();
         b.add_particle(x0, v0, 0.2).unwrap();
         let model: Model<f64> = b.finalize().unwrap();
         let mut s = model.state();
@@ -122,7 +122,7 @@ fn free_fall_matches_closed_form() {
 /// A perturbed, moving, pressurised icosphere in f64 without gravity.
 fn free_ball(subdiv: u32, seed: u64) -> (Model<f64>, State<f64>) {
     let mut b = ModelBuilder::new();
-    b.gravity(DVec3::ZERO);
+    b.gravity(DVec3::ZERO).unwrap();
     let opts = SoftBodyOptions {
         mass: Mass::Total(0.5),
         stiffness: Stiffness::Membrane(500.0),
@@ -168,7 +168,7 @@ fn internal_forces_sum_to_zero_and_momentum_is_conserved() {
 #[test]
 fn net_pressure_force_on_a_closed_surface_is_zero() {
     let mut b = ModelBuilder::new();
-    b.gravity(DVec3::ZERO);
+    b.gravity(DVec3::ZERO).unwrap();
     let opts = SoftBodyOptions {
         stiffness: Stiffness::PerSpring(0.0),
         damping: Damping::PerSpring(0.0),
@@ -196,7 +196,7 @@ fn bumps(p: DVec3) -> f64 {
 #[test]
 fn spring_and_pressure_forces_are_minus_energy_gradients() {
     let mut b = ModelBuilder::new();
-    b.gravity(DVec3::ZERO);
+    b.gravity(DVec3::ZERO).unwrap();
     let opts = SoftBodyOptions {
         stiffness: Stiffness::Membrane(300.0),
         damping: Damping::PerSpring(0.0),
@@ -241,7 +241,7 @@ fn slowly_compressed_ball_follows_boyle() {
     // quasi-statically by raising the outside pressure in stages. At each equilibrium the gas pressure nRT/V
     // must balance the outside pressure, i.e. P_ext · V = nRT.
     let mut b = ModelBuilder::new();
-    b.gravity(DVec3::ZERO);
+    b.gravity(DVec3::ZERO).unwrap();
     let r0 = 0.1;
     let v0 = Mesh::icosphere(r0, 2).signed_volume();
     let nrt = 1000.0 * 3.0 * v0;
@@ -277,7 +277,7 @@ fn slowly_compressed_ball_follows_boyle() {
 fn undamped_symplectic_integrators_keep_energy_bounded_for_1e5_steps() {
     for integrator in [Integrator::SymplecticEuler, Integrator::VelocityVerlet] {
         let mut b = ModelBuilder::new();
-        b.gravity(DVec3::ZERO);
+        b.gravity(DVec3::ZERO).unwrap();
         let opts = SoftBodyOptions {
             mass: Mass::Total(0.2),
             stiffness: Stiffness::Membrane(200.0),

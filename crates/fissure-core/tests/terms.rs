@@ -5,12 +5,12 @@ use fissure_core::*;
 
 fn sheet(wind: Option<WindField>, velocity: DVec3) -> (Model<f64>, State<f64>) {
     let mut b = ModelBuilder::new();
-    b.gravity(DVec3::ZERO);
+    b.gravity(DVec3::ZERO).unwrap();
     let opts = ClothOptions { mass: Mass::PerParticle(1e-3), ..Default::default() };
     // A sheet in the XY plane: its normal is z.
     b.add_cloth_grid(8, 8, 0.05, |p| p, &opts).unwrap();
     if let Some(w) = wind {
-        b.wind(w);
+        b.wind(w).unwrap();
     }
     let model: Model<f64> = b.finalize().unwrap();
     let mut s = model.state();
@@ -83,7 +83,7 @@ fn absent_terms_are_never_entered() {
         let mut b = ModelBuilder::new();
         b.add_cloth_grid(8, 8, 0.05, |p| p, &ClothOptions { aero: Aero::default(), ..Default::default() }).unwrap();
         if wind {
-            b.wind(WindField::default());
+            b.wind(WindField::default()).unwrap();
         }
         if gas {
             b.add_soft_body(
@@ -99,7 +99,7 @@ fn absent_terms_are_never_entered() {
             .unwrap();
         }
         if colliders {
-            b.add_collider(Collider::ground(-5.0));
+            b.add_collider(Collider::ground(-5.0)).unwrap();
         }
         let model: Model<f32> = b.finalize().unwrap();
         assert_eq!(model.has_wind(), wind, "{name}");

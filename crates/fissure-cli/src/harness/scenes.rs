@@ -25,7 +25,7 @@ pub struct Scene {
 /// no damping; 2 s (about 3 periods). The closed form is `x(t) = 0.1 cos(10 t)`.
 pub fn oscillator(quick: bool) -> Scene {
     let mut b = ModelBuilder::new();
-    b.gravity(DVec3::ZERO);
+    b.gravity(DVec3::ZERO).expect("valid");
     let anchor = b.add_particle(DVec3::ZERO, DVec3::ZERO, 0.0).expect("valid");
     let mass = b.add_particle(DVec3::new(1.0, 0.0, 0.0), DVec3::ZERO, 1.0).expect("valid");
     b.add_spring(anchor, mass, 100.0, 0.0).expect("valid");

@@ -58,11 +58,11 @@ fn build(body: &str, term: Term, quick: bool) -> Result<ModelBuilder, ModelError
     }
     match term {
         Term::Wind => {
-            b.wind(WindField { velocity: DVec3::new(0.0, 0.0, 4.0), ..Default::default() });
+            b.wind(WindField { velocity: DVec3::new(0.0, 0.0, 4.0), ..Default::default() })?;
         }
         Term::Colliders => {
-            b.add_collider(Collider::ground(if body == "cloth" { 0.9995 } else { 0.0 }));
-            b.add_collider(Collider::ball(Vec3::new(0.3, 0.8, 0.3), 0.2));
+            b.add_collider(Collider::ground(if body == "cloth" { 0.9995 } else { 0.0 }))?;
+            b.add_collider(Collider::ball(Vec3::new(0.3, 0.8, 0.3), 0.2))?;
         }
         _ => {}
     }
@@ -88,39 +88,22 @@ pub fn run(r: &mut Report) -> Result<(), String> {
             if body == "cloth" && term == Term::Pressure {
                 continue; // an open sheet holds no gas
             }
-            let mut model: Model<f32> =
+            let model: Model<f32> =
                 build(body, term, r.quick).map_err(|e| e.to_string())?.finalize().map_err(|e| e.to_string())?;
-            let mut s = model.state();
-            let mut solver = CpuSolver::<f32>::default();
-            let mut fracture = Fracture::<f32>::new(FractureConfig::default());
+            let mut world = World::new(model, SolverConfig::default());
             let dt = 5e-5;
-            let advance = |model: &mut Model<f32>,
-                           s: &mut State<f32>,
-                           solver: &mut CpuSolver<f32>,
-                           fracture: &mut Fracture<f32>|
-             -> Result<(), String> {
-                solver.step(model, s, dt).map_err(|e| e.to_string())?;
-                if fracture.needed(model) {
-                    let events = fracture.apply(model, s, dt);
-                    if !events.is_empty() {
-                        solver.notify_model_changed(model);
-                    }
-                }
-                Ok(())
-            };
             for _ in 0..10 {
-                advance(&mut model, &mut s, &mut solver, &mut fracture)?;
+                world.step(dt).map_err(|e| e.to_string())?;
             }
-            solver.reset_timers();
-            fracture.reset_timers();
+            world.reset_timers();
             let t = Instant::now();
             for _ in 0..steps {
-                advance(&mut model, &mut s, &mut solver, &mut fracture)?;
+                world.step(dt).map_err(|e| e.to_string())?;
             }
             let total = t.elapsed().as_secs_f64() / steps as f64 * 1e6;
-            let tm = solver.timers();
+            let tm = world.timers();
             let per = |st: Stage| tm.time(st).as_secs_f64() / steps as f64 * 1e6;
-            let frac = fracture.timers().time(Stage::Fracture).as_secs_f64() / steps as f64 * 1e6;
+            let frac = per(Stage::Fracture);
             let _ = writeln!(
                 r.md,
                 "| {body} | {} | {} | {} | {} | {} | {} | {} |",
@@ -140,7 +123,7 @@ pub fn run(r: &mut Report) -> Result<(), String> {
                 per(Stage::Integrate),
                 per(Stage::Collide)
             ));
-            let fracture_calls = fracture.timers().calls(Stage::Fracture);
+            let fracture_calls = world.fracture.timers().calls(Stage::Fracture);
             if term != Term::Pressure && term != Term::Wind {
                 r.check(
                     format!("{body} {}: no surface pass", term.name()),

@@ -51,6 +51,31 @@ impl WindField {
         WindField { velocity, gust_amplitude: 0.0, crosswind: 0.0, ..Default::default() }
     }
 
+    /// Checks every value: a finite `velocity`; finite, non-negative `gust_amplitude`, `gust_frequency`,
+    /// `crosswind`; a finite, positive `gust_wavelength` and `air_density`. Names as in a scene's `[wind]`.
+    pub fn validate(&self) -> Result<(), crate::error::ModelError> {
+        use crate::error::ModelError;
+        if !self.velocity.is_finite() {
+            let bad = self.velocity.to_array().into_iter().find(|x| !x.is_finite()).unwrap_or(f64::NAN);
+            return Err(ModelError::Parameter { name: "velocity", value: bad, expected: "finite [m/s]" });
+        }
+        for (name, v) in [
+            ("gust_amplitude", self.gust_amplitude),
+            ("gust_frequency", self.gust_frequency),
+            ("crosswind", self.crosswind),
+        ] {
+            if !(v.is_finite() && v >= 0.0) {
+                return Err(ModelError::Parameter { name, value: v, expected: "finite and >= 0" });
+            }
+        }
+        for (name, v) in [("gust_wavelength", self.gust_wavelength), ("air_density", self.air_density)] {
+            if !(v.is_finite() && v > 0.0) {
+                return Err(ModelError::Parameter { name, value: v, expected: "finite and > 0" });
+            }
+        }
+        Ok(())
+    }
+
     /// Wind velocity at point `x` [m] and time `t` [s].
     pub fn sample(&self, x: DVec3, t: f64) -> DVec3 {
         let speed = self.velocity.length();

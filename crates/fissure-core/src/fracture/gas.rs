@@ -78,6 +78,7 @@ impl<R: Real> Fracture<R> {
             let area = m.opening_area(s, bu);
             let flow = self.config.discharge_coefficient * area * (2.0 * dp / self.config.gas_density).sqrt();
             m.body_gas_amount[bu] = R::from_f64(gas * (-flow * dt / v).exp());
+            self.delta.gas = true;
         }
     }
 }

@@ -104,6 +104,38 @@ pub struct FractureConfig {
     pub start_time: f64,
 }
 
+impl FractureConfig {
+    /// Checks every value: an averaged trigger's `window` finite and > 0, `discharge_coefficient` and
+    /// `gas_density` finite and > 0, `min_rest_length` and `min_mass_ratio` finite and >= 0, `start_time` finite.
+    /// The error names the setting as a scene file's `[fracture]` and Python do (`averaged_window`, ...).
+    pub fn validate(&self) -> Result<(), crate::ModelError> {
+        use crate::ModelError;
+        if let Trigger::Averaged { window } = self.trigger
+            && !(window.is_finite() && window > 0.0)
+        {
+            return Err(ModelError::Parameter {
+                name: "averaged_window",
+                value: window,
+                expected: "finite and > 0 [s]",
+            });
+        }
+        for (name, v) in [("discharge_coefficient", self.discharge_coefficient), ("gas_density", self.gas_density)] {
+            if !(v.is_finite() && v > 0.0) {
+                return Err(ModelError::Parameter { name, value: v, expected: "finite and > 0" });
+            }
+        }
+        for (name, v) in [("min_rest_length", self.min_rest_length), ("min_mass_ratio", self.min_mass_ratio)] {
+            if !(v.is_finite() && v >= 0.0) {
+                return Err(ModelError::Parameter { name, value: v, expected: "finite and >= 0" });
+            }
+        }
+        if !self.start_time.is_finite() {
+            return Err(ModelError::Parameter { name: "start_time", value: self.start_time, expected: "finite [s]" });
+        }
+        Ok(())
+    }
+}
+
 impl Default for FractureConfig {
     fn default() -> Self {
         FractureConfig {
@@ -166,9 +198,15 @@ impl FractureEvent {
     }
 }
 
-/// What a call of [`Fracture::apply`] changed, for solvers that mirror the model (a GPU re-uploads only this).
+/// What a call of [`Fracture::apply`] (or a forced break) did: the events, and every item of the model it changed.
+///
+/// This is the contract between the fracture pass and the solvers: `World` hands it to
+/// [`crate::Solver::notify_model_changed`], and a solver that mirrors the model (the GPU) re-packs and uploads only
+/// the rows it names, so the work after a split follows the size of the change, not of the mesh.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct TopologyDelta {
+    /// The fractures, in the order they happened.
+    pub events: Vec<FractureEvent>,
     /// Particles, springs, triangles and bodies before the call; items from these indices on are new.
     pub old_counts: [usize; 4],
     /// Existing particles whose mass, body or load limit changed.
@@ -179,12 +217,36 @@ pub struct TopologyDelta {
     pub triangles: Vec<u32>,
     /// Whether the openings changed.
     pub openings: bool,
+    /// Whether a body's gas amount changed (it leaked through an opening); nothing else need have changed.
+    pub gas: bool,
+    /// Anything may have changed (a hand edit of the model's arrays): a mirror re-derives everything.
+    pub whole: bool,
 }
 
 impl TopologyDelta {
-    /// True if nothing changed.
+    /// True if the topology, masses and openings are unchanged (the gas may have leaked: see [`Self::gas`]).
     pub fn is_empty(&self) -> bool {
-        self.particles.is_empty() && self.springs.is_empty() && self.triangles.is_empty() && !self.openings
+        self.events.is_empty()
+            && self.particles.is_empty()
+            && self.springs.is_empty()
+            && self.triangles.is_empty()
+            && !self.openings
+            && !self.whole
+    }
+
+    /// The delta for a model edited by hand: anything may have changed.
+    pub fn whole() -> Self {
+        TopologyDelta { whole: true, gas: true, ..Default::default() }
+    }
+
+    /// True if nothing at all changed, gas included.
+    pub fn is_nothing(&self) -> bool {
+        self.is_empty() && !self.gas
+    }
+
+    /// The model's counts after the call, from `m`: `[particles, springs, triangles, bodies]`.
+    pub fn new_counts<R: Real>(m: &Model<R>) -> [usize; 4] {
+        [m.particle_count(), m.spring_count(), m.tri_count(), m.body_count()]
     }
 }
 
@@ -255,14 +317,15 @@ impl<R: Real> Fracture<R> {
     }
 
     /// Checks every breakable spring and vertex after a step of `dt` [s], splits those past their limits, lets
-    /// gas leak through the openings, and returns the events (empty if nothing broke). When the model changed,
-    /// [`Fracture::last_delta`] says what, and the solver must be told (`Solver::notify_model_changed`).
-    pub fn apply(&mut self, m: &mut Model<R>, s: &mut State<R>, dt: f64) -> Vec<FractureEvent> {
+    /// gas leak through the openings, and returns what it did: the events and what changed, which the solver
+    /// must be told (`Solver::notify_model_changed`). `World` does both; call this directly only to drive a
+    /// solver of your own.
+    pub fn apply(&mut self, m: &mut Model<R>, s: &mut State<R>, dt: f64) -> TopologyDelta {
         let mut events = Vec::new();
         self.begin(m);
         self.volumes.clear();
         if !self.needed(m) {
-            return events;
+            return std::mem::take(&mut self.delta);
         }
         let t0 = Instant::now();
         if m.has_fracture() && s.time >= self.config.start_time {
@@ -290,22 +353,23 @@ impl<R: Real> Fracture<R> {
         self.leak(m, s, dt);
         self.timers.add(Stage::Fracture, t0);
         self.timers.steps += 1;
-        events
+        self.delta.events = events;
+        std::mem::take(&mut self.delta)
     }
 
     /// Breaks spring `sp` now (spring mode, or removal if it is on no triangle), whatever its strain: for
-    /// cutting tools and tests. Empty if it cannot break (already broken, shorter than the minimum).
-    pub fn break_spring(&mut self, m: &mut Model<R>, s: &mut State<R>, sp: usize) -> Vec<FractureEvent> {
+    /// cutting tools and tests. No events if it cannot break (already broken, shorter than the minimum).
+    pub fn break_spring(&mut self, m: &mut Model<R>, s: &mut State<R>, sp: usize) -> TopologyDelta {
         self.break_now(m, s, sp, false)
     }
 
     /// Breaks particle `v` out as a core block now, whatever its load: a puncture. Empty if it cannot (pinned,
-    /// on or next to a boundary, valence outside 3..=64, a spoke that is not a spring).
-    pub fn break_core(&mut self, m: &mut Model<R>, s: &mut State<R>, v: usize) -> Vec<FractureEvent> {
+    /// on or next to a boundary, valence outside 3..=64, a spoke that is not a spring): no events then.
+    pub fn break_core(&mut self, m: &mut Model<R>, s: &mut State<R>, v: usize) -> TopologyDelta {
         self.break_now(m, s, v, true)
     }
 
-    fn break_now(&mut self, m: &mut Model<R>, s: &mut State<R>, index: usize, core: bool) -> Vec<FractureEvent> {
+    fn break_now(&mut self, m: &mut Model<R>, s: &mut State<R>, index: usize, core: bool) -> TopologyDelta {
         self.begin(m);
         let mut events = Vec::new();
         if core && index < m.particle_count() {
@@ -314,7 +378,8 @@ impl<R: Real> Fracture<R> {
             self.split_spring(m, s, index as u32, &mut events);
         }
         self.finish(m);
-        events
+        self.delta.events = events;
+        std::mem::take(&mut self.delta)
     }
 
     /// Sizes the pass for `m` and fixes the mass floor (`min_mass_ratio` times the lightest particle with
@@ -359,11 +424,6 @@ impl<R: Real> Fracture<R> {
             list.sort_unstable();
             list.dedup();
         }
-    }
-
-    /// What the last [`Fracture::apply`] changed.
-    pub fn last_delta(&self) -> &TopologyDelta {
-        &self.delta
     }
 
     fn heavy_enough(&self, mass: R) -> bool {

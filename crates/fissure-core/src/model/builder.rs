@@ -79,10 +79,13 @@ impl ModelBuilder {
         }
     }
 
-    /// Sets gravity [m/s^2].
-    pub fn gravity(&mut self, g: DVec3) -> &mut Self {
+    /// Sets gravity [m/s^2]; rejects a non-finite vector.
+    pub fn gravity(&mut self, g: DVec3) -> Result<&mut Self, ModelError> {
+        if let Some(&x) = g.to_array().iter().find(|x| !x.is_finite()) {
+            return Err(ModelError::Parameter { name: "gravity", value: x, expected: "finite [m/s^2]" });
+        }
         self.gravity = g;
-        self
+        Ok(self)
     }
 
     /// Chooses the damping form (seed eq. 2).
@@ -91,16 +94,19 @@ impl ModelBuilder {
         self
     }
 
-    /// Sets the wind field.
-    pub fn wind(&mut self, w: WindField) -> &mut Self {
+    /// Sets the wind field; rejects bad values ([`WindField::validate`]).
+    pub fn wind(&mut self, w: WindField) -> Result<&mut Self, ModelError> {
+        w.validate()?;
         self.wind = Some(w);
-        self
+        Ok(self)
     }
 
-    /// Adds a collider.
-    pub fn add_collider(&mut self, c: Collider) -> &mut Self {
+    /// Adds a collider; rejects bad values ([`Collider::validate`]: a zero normal, a radius that is not
+    /// positive, a restitution outside [0, 1], ...).
+    pub fn add_collider(&mut self, c: Collider) -> Result<&mut Self, ModelError> {
+        c.validate()?;
         self.colliders.push(c);
-        self
+        Ok(self)
     }
 
     /// Number of particles so far.
@@ -168,11 +174,11 @@ impl ModelBuilder {
         let nrt = match opts.gas {
             Gas::None => 0.0,
             Gas::Amount(a) => {
-                check_pos("gas amount nRT", a)?;
+                check_pos("gas_amount", a)?;
                 a
             }
             Gas::Pressure(p) => {
-                check_pos("gas pressure", p)?;
+                check_pos("pressure", p)?;
                 p * v0
             }
         };

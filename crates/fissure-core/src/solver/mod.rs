@@ -21,6 +21,7 @@
 use crate::error::StepError;
 use crate::forces::spring::{implicit_coefficients, run_block_dispatch};
 use crate::forces::{ForceScratch, particle_force, pressure};
+use crate::fracture::TopologyDelta;
 use crate::model::{DampingModel, Model, State};
 use crate::par;
 use crate::real::{Real, Vector3};
@@ -71,18 +72,73 @@ impl SolverConfig {
     pub fn with(integrator: Integrator) -> Self {
         SolverConfig { integrator, ..Default::default() }
     }
+
+    /// Checks every value: `cg_tolerance` finite and > 0, `cg_max_iterations` ≥ 1, `substep_safety` in (0, 1].
+    /// Every step checks it (a few compares), so a bad setting is an error naming it, never a silent default.
+    pub fn validate(&self) -> Result<(), StepError> {
+        if !(self.cg_tolerance.is_finite() && self.cg_tolerance > 0.0) {
+            return Err(StepError::Config(format!("cg_tolerance must be finite and > 0, got {}", self.cg_tolerance)));
+        }
+        if self.cg_max_iterations == 0 {
+            return Err(StepError::Config("cg_max_iterations must be at least 1, got 0".into()));
+        }
+        if let Some(s) = self.substep_safety
+            && !(s > 0.0 && s <= 1.0)
+        {
+            return Err(StepError::Config(format!("substep_safety must be in (0, 1], got {s}")));
+        }
+        Ok(())
+    }
 }
 
 /// What every solver (CPU, GPU) offers.
-pub trait Solver<R: Real> {
-    /// Advances `state` by `dt` [s].
+///
+/// `World` (in the `fissure` facade) drives a solver through this trait and is the one place that sequences
+/// step → fracture → notify; the methods past `step` exist so that a solver keeping the state elsewhere (the GPU)
+/// can run many steps without copying it back.
+pub trait Solver<R: Real>: Send + Sync {
+    /// Advances `state` by `dt` [s] (the state in and out is `state`).
     fn step(&mut self, model: &Model<R>, state: &mut State<R>, dt: f64) -> Result<(), StepError>;
-    /// Tells the solver the model's arrays changed size or content (after a fracture, say).
-    fn notify_model_changed(&mut self, model: &Model<R>);
+    /// `steps` steps of `dt` [s] as one batch from the solver's current state. Afterwards the solver's own copy
+    /// is current and `state` may lag until [`Solver::sync_state`] (the CPU solver steps `state` itself; the GPU
+    /// keeps it on the device). Default: `steps` calls of [`Solver::step`].
+    fn advance(&mut self, model: &Model<R>, state: &mut State<R>, dt: f64, steps: usize) -> Result<(), StepError> {
+        for _ in 0..steps {
+            self.step(model, state, dt)?;
+        }
+        Ok(())
+    }
+    /// Simulation time of the solver's copy of the state [s] (the CPU: `state.time`).
+    fn time(&self, state: &State<R>) -> f64 {
+        state.time
+    }
+    /// False when the last batch certainly passed no fracture limit (a GPU's kernels flag candidates as they
+    /// step); the fracture pass is then skipped unless a gas body leaks. The CPU cannot tell cheaply: true.
+    fn may_have_fracture_candidates(&self) -> bool {
+        true
+    }
+    /// Brings `state` up to date with the solver's copy (a GPU reads it back). Default: nothing to do.
+    fn sync_state(&mut self, _state: &mut State<R>) -> Result<(), StepError> {
+        Ok(())
+    }
+    /// `state` was changed outside the solver (a fracture split particles, a user moved them): take it as the
+    /// solver's copy (a GPU uploads it). Default: nothing to do.
+    fn upload_state(&mut self, _state: &State<R>) -> Result<(), StepError> {
+        Ok(())
+    }
+    /// Tells the solver what changed in the model: after a fracture, the pass's [`TopologyDelta`]; after editing
+    /// parameters by hand, [`TopologyDelta::whole`].
+    fn notify_model_changed(&mut self, model: &Model<R>, delta: &TopologyDelta);
     /// Per-stage time spent so far.
     fn timers(&self) -> &StageTimers;
     /// Clears the stage timers.
     fn reset_timers(&mut self);
+    /// The solver as `Any`, to reach a backend's own methods (`downcast_ref::<CpuSolver<f32>>()`).
+    fn as_any(&self) -> &dyn std::any::Any;
+    /// The solver as `Any`, mutably.
+    fn as_any_mut(&mut self) -> &mut dyn std::any::Any;
+    /// A short name: `cpu` or `gpu`.
+    fn name(&self) -> &'static str;
 }
 
 /// Statistics of the last implicit solve.
@@ -469,12 +525,10 @@ impl<R: Real> CpuSolver<R> {
         if s.particle_q.len() != m.particle_count() || s.particle_qd.len() != m.particle_count() {
             return Err(StepError::StateMismatch { state: s.particle_q.len(), model: m.particle_count() });
         }
+        self.config.validate()?;
         self.ensure_sized(m);
         let mut substeps = 1;
         if let Some(safety) = self.config.substep_safety {
-            if !(safety > 0.0 && safety <= 1.0) {
-                return Err(StepError::Config(format!("substep_safety must be in (0, 1], got {safety}")));
-            }
             let limit = safety * self.stability_bound(m).max_dt(self.config.integrator);
             if dt > limit {
                 // Cap the count so a zero-mass or absurd bound cannot hang the caller.
@@ -528,10 +582,13 @@ impl<R: Real> Solver<R> for CpuSolver<R> {
         self.step_inner(model, state, dt)
     }
 
-    fn notify_model_changed(&mut self, _model: &Model<R>) {
-        // Buffers (and the stability bound) are sized lazily from the model's counts on the next step.
-        self.sized_for = None;
-        self.bound = None;
+    fn notify_model_changed(&mut self, _model: &Model<R>, delta: &TopologyDelta) {
+        // Buffers (and the stability bound) are sized lazily from the model's counts on the next step. A leak
+        // alone changes only gas amounts, which every step reads anyway.
+        if !delta.is_empty() {
+            self.sized_for = None;
+            self.bound = None;
+        }
     }
 
     fn timers(&self) -> &StageTimers {
@@ -540,5 +597,17 @@ impl<R: Real> Solver<R> for CpuSolver<R> {
 
     fn reset_timers(&mut self) {
         self.timers.reset();
+    }
+
+    fn as_any(&self) -> &dyn std::any::Any {
+        self
+    }
+
+    fn as_any_mut(&mut self) -> &mut dyn std::any::Any {
+        self
+    }
+
+    fn name(&self) -> &'static str {
+        "cpu"
     }
 }

@@ -206,7 +206,13 @@ class State:
 
 @final
 class Solver:
-    def __new__(cls, *, integrator: Integrator = ..., cg_tolerance: float = 1e-5, cg_max_iterations: int = 200
+    def __new__(
+        cls,
+        *,
+        integrator: Integrator = ...,
+        cg_tolerance: float = 1e-5,
+        cg_max_iterations: int = 200,
+        substep_safety: float | None = None,
     ) -> Solver: ...
     def step(self, model: Model, state: State, dt: float, steps: int = 1) -> None: ...
     def timers(self) -> dict[str, Any]: ...
@@ -220,6 +226,7 @@ class World:
         integrator: Integrator = ...,
         cg_tolerance: float = 1e-5,
         cg_max_iterations: int = 200,
+        substep_safety: float | None = None,
         max_events_per_step: int = 32,
         averaged_window: float | None = None,
         discharge_coefficient: float = 0.6,

@@ -18,11 +18,14 @@
 use std::sync::mpsc;
 use std::time::Instant;
 
-use fissure_core::{Fracture, FractureEvent, Integrator, Model, Solver, StageTimers, State, StepError};
+use fissure_core::{Integrator, Model, StageTimers, State};
 use glam::Vec3;
 
 use crate::layout::{self, CLOCK_STRIDE, Clock, GpuCollider, Mirror, Packed, Params};
 use crate::{GpuError, SHADERS, shader_source};
+
+mod bind;
+mod transfer;
 
 /// Storage buffers one kernel binds (bindings 1 to 21 of `common.wgsl`).
 const STORAGE_BINDINGS: u32 = 21;
@@ -137,6 +140,8 @@ pub struct GpuSolver {
     time: f64,
     /// The state must be uploaded before the next run (particles were added).
     state_stale: bool,
+    /// What the last submission found.
+    last_report: RunReport,
     passes: Vec<&'static str>,
     last_upload: usize,
     timers: StageTimers,
@@ -353,6 +358,7 @@ impl GpuSolver {
             packed,
             time: 0.0,
             state_stale: false,
+            last_report: RunReport::default(),
             passes: Vec::new(),
             last_upload: 0,
             timers: StageTimers::default(),
@@ -360,105 +366,6 @@ impl GpuSolver {
         s.write_params(model);
         s.upload_state(&model.state())?;
         Ok(s)
-    }
-
-    fn clock_buffer(device: &wgpu::Device, entries: usize) -> wgpu::Buffer {
-        layout::create(
-            device,
-            "clock",
-            entries * CLOCK_STRIDE as usize,
-            wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
-        )
-    }
-
-    fn clock_bind(device: &wgpu::Device, layout: &wgpu::BindGroupLayout, clock: &wgpu::Buffer) -> wgpu::BindGroup {
-        device.create_bind_group(&wgpu::BindGroupDescriptor {
-            label: Some("clock"),
-            layout,
-            entries: &[wgpu::BindGroupEntry {
-                binding: 0,
-                resource: wgpu::BindingResource::Buffer(wgpu::BufferBinding {
-                    buffer: clock,
-                    offset: 0,
-                    size: wgpu::BufferSize::new(size_of::<Clock>() as u64),
-                }),
-            }],
-        })
-    }
-
-    #[allow(clippy::too_many_arguments)]
-    fn binds(
-        device: &wgpu::Device,
-        layout: &wgpu::BindGroupLayout,
-        params: &wgpu::Buffer,
-        q: &[wgpu::Buffer; 2],
-        qd: &[wgpu::Buffer; 2],
-        m: [&wgpu::Buffer; 11],
-        s: &Scratch,
-        candidates: &wgpu::Buffer,
-    ) -> [wgpu::BindGroup; 2] {
-        let [particles, rows, adj, springs, tris, bodies, colliders, sdf, openings, spring_ends, caps] = m;
-        [0, 1].map(|cur| {
-            let other = 1 - cur;
-            let list: [(u32, &wgpu::Buffer); 22] = [
-                (0, params),
-                (1, &q[cur]),
-                (2, &qd[cur]),
-                (3, &q[other]),
-                (4, &qd[other]),
-                (5, particles),
-                (6, rows),
-                (7, adj),
-                (8, springs),
-                (9, tris),
-                (10, &s.tri_cross),
-                (11, &s.tri_f),
-                (12, bodies),
-                (13, &s.body_state),
-                (14, &s.partials),
-                (15, colliders),
-                (16, sdf),
-                (17, openings),
-                (18, spring_ends),
-                (19, caps),
-                (20, &s.cap_data),
-                (21, candidates),
-            ];
-            let entries: Vec<_> = list
-                .iter()
-                .map(|&(binding, b)| wgpu::BindGroupEntry { binding, resource: b.as_entire_binding() })
-                .collect();
-            device.create_bind_group(&wgpu::BindGroupDescriptor {
-                label: Some(if cur == 0 { "state 0 -> 1" } else { "state 1 -> 0" }),
-                layout,
-                entries: &entries,
-            })
-        })
-    }
-
-    fn rebind(&mut self) {
-        self.bind = Self::binds(
-            &self.device,
-            &self.layout0,
-            &self.params,
-            &self.q,
-            &self.qd,
-            [
-                &self.particles.buffer,
-                &self.rows.buffer,
-                &self.adj.buffer,
-                &self.springs.buffer,
-                &self.tris.buffer,
-                &self.bodies.buffer,
-                &self.colliders.buffer,
-                &self.sdf.buffer,
-                &self.openings.buffer,
-                &self.spring_ends.buffer,
-                &self.caps.buffer,
-            ],
-            &self.scratch,
-            &self.candidates,
-        );
     }
 
     fn write_params(&mut self, m: &Model<f32>) {
@@ -500,63 +407,6 @@ impl GpuSolver {
     /// Bytes written to model buffers by the last [`GpuSolver::notify_model_changed`] (or creation).
     pub fn last_upload_bytes(&self) -> usize {
         self.last_upload
-    }
-
-    /// Writes `state` (positions, velocities, time) to the GPU.
-    pub fn upload_state(&mut self, state: &State<f32>) -> Result<(), GpuError> {
-        let n = self.particle_count();
-        if state.particle_q.len() != n || state.particle_qd.len() != n {
-            return Err(GpuError::StateMismatch { state: state.particle_q.len(), model: n });
-        }
-        let pack = |v: &[Vec3]| v.iter().map(|x| [x.x, x.y, x.z, 0.0]).collect::<Vec<[f32; 4]>>();
-        self.queue.write_buffer(&self.q[self.cur], 0, bytemuck::cast_slice(&pack(&state.particle_q)));
-        self.queue.write_buffer(&self.qd[self.cur], 0, bytemuck::cast_slice(&pack(&state.particle_qd)));
-        self.time = state.time;
-        self.state_stale = false;
-        Ok(())
-    }
-
-    /// Reads the current positions, velocities and time into `state` (a synchronous read-back).
-    pub fn read_state(&mut self, state: &mut State<f32>) -> Result<(), GpuError> {
-        let n = self.particle_count();
-        let (q, qd) = (self.read_vec4(&self.q[self.cur], n)?, self.read_vec4(&self.qd[self.cur], n)?);
-        state.particle_q.clear();
-        state.particle_q.extend(q.iter().map(|v| Vec3::new(v[0], v[1], v[2])));
-        state.particle_qd.clear();
-        state.particle_qd.extend(qd.iter().map(|v| Vec3::new(v[0], v[1], v[2])));
-        state.time = self.time;
-        Ok(())
-    }
-
-    fn read_bytes(&self, src: &wgpu::Buffer, bytes: u64) -> Result<Vec<u8>, GpuError> {
-        let bytes = bytes.max(4).next_multiple_of(4);
-        let staging = layout::create(
-            &self.device,
-            "readback",
-            bytes as usize,
-            wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
-        );
-        let mut enc = self.device.create_command_encoder(&Default::default());
-        enc.copy_buffer_to_buffer(src, 0, &staging, 0, bytes);
-        self.queue.submit([enc.finish()]);
-        self.map_read(&staging, bytes)
-    }
-
-    fn map_read(&self, staging: &wgpu::Buffer, bytes: u64) -> Result<Vec<u8>, GpuError> {
-        let (tx, rx) = mpsc::channel();
-        staging.map_async(wgpu::MapMode::Read, 0..bytes, move |r| {
-            let _ = tx.send(r);
-        });
-        self.device.poll(wgpu::PollType::wait_indefinitely()).map_err(|e| GpuError::Readback(e.to_string()))?;
-        rx.recv().map_err(|e| GpuError::Readback(e.to_string()))?.map_err(|e| GpuError::Readback(e.to_string()))?;
-        let out = staging.get_mapped_range(0..bytes).map_err(|e| GpuError::Readback(e.to_string()))?.to_vec();
-        staging.unmap();
-        Ok(out)
-    }
-
-    fn read_vec4(&self, src: &wgpu::Buffer, n: usize) -> Result<Vec<[f32; 4]>, GpuError> {
-        let bytes = self.read_bytes(src, (n * 16) as u64)?;
-        Ok(bytemuck::pod_collect_to_vec::<u8, [f32; 4]>(&bytes[..n * 16]))
     }
 
     fn ensure_clock(&mut self, entries: usize) {
@@ -765,100 +615,6 @@ impl GpuSolver {
             .map(|(x, b)| if b.gas_slot == layout::NONE { (0.0, 0.0) } else { (x[0], x[1]) })
             .collect())
     }
-
-    /// Re-packs `m` and uploads what differs from the GPU copy (block-wise; after a fracture event that is a few
-    /// blocks per array). If particles were added, the state must be uploaded next ([`GpuSolver::upload_state`]).
-    pub fn sync_model(&mut self, m: &Model<f32>) {
-        let p = Packed::new(m, self.packed.tri_offset);
-        let (d, q) = (&self.device, &self.queue);
-        let mut realloc = false;
-        let mut bytes = 0;
-        let mut add = |(r, b): (bool, usize)| {
-            realloc |= r;
-            bytes += b;
-        };
-        add(self.particles.sync(d, q, &p.particles));
-        add(self.rows.sync(d, q, &p.rows));
-        add(self.adj.sync(d, q, &p.adj));
-        add(self.springs.sync(d, q, &p.springs));
-        add(self.tris.sync(d, q, &p.tris));
-        add(self.bodies.sync(d, q, &p.bodies));
-        add(self.openings.sync(d, q, &p.openings));
-        add(self.spring_ends.sync(d, q, &p.spring_ends));
-        add(self.caps.sync(d, q, &p.caps));
-        let old_count = self.particle_count();
-        self.packed = p;
-        let n = m.particle_count();
-        if n != old_count {
-            // Particles were added: the state must be uploaded before the next run (the old contents are not
-            // needed, so a reallocation copies nothing).
-            self.state_stale = true;
-            if n > self.state_capacity {
-                self.state_capacity = n + n / 4;
-                let mk = |l| layout::create(&self.device, l, self.state_capacity * 16, STATE_USAGE);
-                self.q = [mk("q0"), mk("q1")];
-                self.qd = [mk("qd0"), mk("qd1")];
-                realloc = true;
-            }
-        }
-        if (0..4).any(|k| scratch_sizes(m, &self.packed)[k] > self.scratch.sized[k]) {
-            self.scratch = scratch(&self.device, m, &self.packed);
-            realloc = true;
-        }
-        self.write_params(m);
-        bytes += size_of::<Params>();
-        if realloc {
-            self.rebind();
-        }
-        self.last_upload = bytes;
-    }
-
-    /// One submission of `steps` substeps with fracture on the CPU: if the kernels flagged a candidate (or a gas
-    /// body has openings, which leak), the state is read back into `state`, `fracture` (the CPU pass, unchanged)
-    /// decides and changes the topology, and what changed is uploaded. Otherwise nothing is read and `state` is
-    /// left as it was (read it with [`GpuSolver::read_state`] when needed). Fracture therefore acts at the end of
-    /// each submission: its time resolution is `steps * dt`.
-    pub fn advance_with_fracture(
-        &mut self,
-        m: &mut Model<f32>,
-        state: &mut State<f32>,
-        fracture: &mut Fracture<f32>,
-        dt: f64,
-        steps: usize,
-    ) -> Result<Vec<FractureEvent>, GpuError> {
-        let report = self.run(m, dt, steps)?;
-        if !fracture.needed(m) {
-            return Ok(Vec::new());
-        }
-        if report.spring_candidates == 0 && report.vertex_candidates == 0 && m.openings.is_empty() {
-            return Ok(Vec::new());
-        }
-        self.read_state(state)?;
-        let events = fracture.apply(m, state, dt * steps as f64);
-        let changed = !fracture.last_delta().is_empty() || !events.is_empty();
-        if changed {
-            self.sync_model(m);
-            self.upload_state(state)?;
-        } else {
-            // Only gas leaked: the bodies' gas amounts are all that changed.
-            self.sync_gas(m);
-        }
-        Ok(events)
-    }
-
-    /// Uploads the bodies' gas amounts after a leak (the state and topology unchanged). A body whose gas ran out
-    /// changes the set of gas bodies, which the full [`GpuSolver::sync_model`] handles.
-    fn sync_gas(&mut self, m: &Model<f32>) {
-        let same_set =
-            self.packed.bodies.iter().zip(&m.body_gas_amount).all(|(b, &g)| (b.gas_slot != layout::NONE) == (g > 0.0));
-        if !same_set || self.packed.bodies.len() != m.body_count() {
-            return self.sync_model(m);
-        }
-        for (b, &g) in self.packed.bodies.iter_mut().zip(&m.body_gas_amount) {
-            b.gas = g;
-        }
-        self.last_upload = self.bodies.sync(&self.device, &self.queue, &self.packed.bodies).1;
-    }
 }
 
 /// Names of the `@compute` entry points of a WGSL file, in order.
@@ -873,36 +629,6 @@ fn entry_points(src: &'static str) -> Vec<&'static str> {
         rest = &rest[end..];
     }
     out
-}
-
-impl Solver<f32> for GpuSolver {
-    /// One step, as the CPU solver's: uploads `state`, runs one substep, reads it back. For speed use
-    /// [`GpuSolver::run`], which keeps the state on the GPU.
-    fn step(&mut self, model: &Model<f32>, state: &mut State<f32>, dt: f64) -> Result<(), StepError> {
-        self.upload_state(state)?;
-        match self.run(model, dt, 1) {
-            Err(GpuError::NonFinite { to, dt, .. }) => {
-                // The CPU's error, with the mesh's bound, so the message names the cause on either backend.
-                let stable_dt = fissure_core::StabilityBound::of(model).max_dt(self.config.integrator);
-                return Err(StepError::NonFinite { time: to, dt, particle: 0, what: "velocity", stable_dt });
-            }
-            r => r?,
-        };
-        self.read_state(state)?;
-        Ok(())
-    }
-
-    fn notify_model_changed(&mut self, model: &Model<f32>) {
-        self.sync_model(model);
-    }
-
-    fn timers(&self) -> &StageTimers {
-        &self.timers
-    }
-
-    fn reset_timers(&mut self) {
-        self.timers.reset();
-    }
 }
 
 #[cfg(test)]

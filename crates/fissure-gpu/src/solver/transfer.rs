@@ -1,0 +1,211 @@
+//! Moving data between the host and the GPU: the state (upload, read-back), the model after a fracture
+//! (re-packed and uploaded block-wise), and the [`Solver`] implementation `World` drives.
+
+use super::*;
+use fissure_core::{Solver, StepError, TopologyDelta};
+
+impl GpuSolver {
+    /// Writes `state` (positions, velocities, time) to the GPU.
+    pub fn upload_state(&mut self, state: &State<f32>) -> Result<(), GpuError> {
+        let n = self.particle_count();
+        if state.particle_q.len() != n || state.particle_qd.len() != n {
+            return Err(GpuError::StateMismatch { state: state.particle_q.len(), model: n });
+        }
+        let pack = |v: &[Vec3]| v.iter().map(|x| [x.x, x.y, x.z, 0.0]).collect::<Vec<[f32; 4]>>();
+        self.queue.write_buffer(&self.q[self.cur], 0, bytemuck::cast_slice(&pack(&state.particle_q)));
+        self.queue.write_buffer(&self.qd[self.cur], 0, bytemuck::cast_slice(&pack(&state.particle_qd)));
+        self.time = state.time;
+        self.state_stale = false;
+        Ok(())
+    }
+
+    /// Reads the current positions, velocities and time into `state` (a synchronous read-back).
+    pub fn read_state(&mut self, state: &mut State<f32>) -> Result<(), GpuError> {
+        let n = self.particle_count();
+        let (q, qd) = (self.read_vec4(&self.q[self.cur], n)?, self.read_vec4(&self.qd[self.cur], n)?);
+        state.particle_q.clear();
+        state.particle_q.extend(q.iter().map(|v| Vec3::new(v[0], v[1], v[2])));
+        state.particle_qd.clear();
+        state.particle_qd.extend(qd.iter().map(|v| Vec3::new(v[0], v[1], v[2])));
+        state.time = self.time;
+        Ok(())
+    }
+
+    pub(super) fn read_bytes(&self, src: &wgpu::Buffer, bytes: u64) -> Result<Vec<u8>, GpuError> {
+        let bytes = bytes.max(4).next_multiple_of(4);
+        let staging = layout::create(
+            &self.device,
+            "readback",
+            bytes as usize,
+            wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+        );
+        let mut enc = self.device.create_command_encoder(&Default::default());
+        enc.copy_buffer_to_buffer(src, 0, &staging, 0, bytes);
+        self.queue.submit([enc.finish()]);
+        self.map_read(&staging, bytes)
+    }
+
+    pub(super) fn map_read(&self, staging: &wgpu::Buffer, bytes: u64) -> Result<Vec<u8>, GpuError> {
+        let (tx, rx) = mpsc::channel();
+        staging.map_async(wgpu::MapMode::Read, 0..bytes, move |r| {
+            let _ = tx.send(r);
+        });
+        self.device.poll(wgpu::PollType::wait_indefinitely()).map_err(|e| GpuError::Readback(e.to_string()))?;
+        rx.recv().map_err(|e| GpuError::Readback(e.to_string()))?.map_err(|e| GpuError::Readback(e.to_string()))?;
+        let out = staging.get_mapped_range(0..bytes).map_err(|e| GpuError::Readback(e.to_string()))?.to_vec();
+        staging.unmap();
+        Ok(out)
+    }
+
+    pub(super) fn read_vec4(&self, src: &wgpu::Buffer, n: usize) -> Result<Vec<[f32; 4]>, GpuError> {
+        let bytes = self.read_bytes(src, (n * 16) as u64)?;
+        Ok(bytemuck::pod_collect_to_vec::<u8, [f32; 4]>(&bytes[..n * 16]))
+    }
+
+    /// Re-packs `m` and uploads what differs from the GPU copy (block-wise; after a fracture event that is a few
+    /// blocks per array). If particles were added, the state must be uploaded next ([`GpuSolver::upload_state`]).
+    pub fn sync_model(&mut self, m: &Model<f32>) {
+        let p = Packed::new(m, self.packed.tri_offset);
+        let (d, q) = (&self.device, &self.queue);
+        let mut realloc = false;
+        let mut bytes = 0;
+        let mut add = |(r, b): (bool, usize)| {
+            realloc |= r;
+            bytes += b;
+        };
+        add(self.particles.sync(d, q, &p.particles));
+        add(self.rows.sync(d, q, &p.rows));
+        add(self.adj.sync(d, q, &p.adj));
+        add(self.springs.sync(d, q, &p.springs));
+        add(self.tris.sync(d, q, &p.tris));
+        add(self.bodies.sync(d, q, &p.bodies));
+        add(self.openings.sync(d, q, &p.openings));
+        add(self.spring_ends.sync(d, q, &p.spring_ends));
+        add(self.caps.sync(d, q, &p.caps));
+        let old_count = self.particle_count();
+        self.packed = p;
+        let n = m.particle_count();
+        if n != old_count {
+            // Particles were added: the state must be uploaded before the next run (the old contents are not
+            // needed, so a reallocation copies nothing).
+            self.state_stale = true;
+            if n > self.state_capacity {
+                self.state_capacity = n + n / 4;
+                let mk = |l| layout::create(&self.device, l, self.state_capacity * 16, STATE_USAGE);
+                self.q = [mk("q0"), mk("q1")];
+                self.qd = [mk("qd0"), mk("qd1")];
+                realloc = true;
+            }
+        }
+        if (0..4).any(|k| scratch_sizes(m, &self.packed)[k] > self.scratch.sized[k]) {
+            self.scratch = scratch(&self.device, m, &self.packed);
+            realloc = true;
+        }
+        self.write_params(m);
+        bytes += size_of::<Params>();
+        if realloc {
+            self.rebind();
+        }
+        self.last_upload = bytes;
+    }
+
+    /// Uploads the bodies' gas amounts after a leak (the state and topology unchanged). A body whose gas ran out
+    /// changes the set of gas bodies, which the full [`GpuSolver::sync_model`] handles.
+    fn sync_gas(&mut self, m: &Model<f32>) {
+        let same_set =
+            self.packed.bodies.iter().zip(&m.body_gas_amount).all(|(b, &g)| (b.gas_slot != layout::NONE) == (g > 0.0));
+        if !same_set || self.packed.bodies.len() != m.body_count() {
+            return self.sync_model(m);
+        }
+        for (b, &g) in self.packed.bodies.iter_mut().zip(&m.body_gas_amount) {
+            b.gas = g;
+        }
+        self.last_upload = self.bodies.sync(&self.device, &self.queue, &self.packed.bodies).1;
+    }
+}
+
+impl GpuSolver {
+    /// `GpuError::NonFinite` as the CPU's error, with the mesh's stability bound, so the message names the cause
+    /// on either backend.
+    fn step_error(&self, model: &Model<f32>, e: GpuError) -> StepError {
+        match e {
+            GpuError::NonFinite { to, dt, .. } => {
+                let stable_dt = fissure_core::StabilityBound::of(model).max_dt(self.config.integrator);
+                StepError::NonFinite { time: to, dt, particle: 0, what: "velocity", stable_dt }
+            }
+            e => e.into(),
+        }
+    }
+}
+
+/// `World` drives the GPU through this: [`Solver::advance`] encodes a batch of substeps in one submission and
+/// leaves the state on the GPU; [`Solver::may_have_fracture_candidates`] answers from the kernels' counters, so
+/// the state is read back only when a limit was passed or a body leaks.
+impl Solver<f32> for GpuSolver {
+    /// One step, as the CPU solver's: uploads `state`, runs one substep, reads it back. `World` uses
+    /// [`Solver::advance`], which keeps the state on the GPU.
+    fn step(&mut self, model: &Model<f32>, state: &mut State<f32>, dt: f64) -> Result<(), StepError> {
+        GpuSolver::upload_state(self, state)?;
+        self.last_report = self.run(model, dt, 1).map_err(|e| self.step_error(model, e))?;
+        self.read_state(state)?;
+        Ok(())
+    }
+
+    fn advance(&mut self, model: &Model<f32>, state: &mut State<f32>, dt: f64, steps: usize) -> Result<(), StepError> {
+        if self.state_stale {
+            GpuSolver::upload_state(self, state)?;
+        }
+        self.last_report = self.run(model, dt, steps).map_err(|e| self.step_error(model, e))?;
+        Ok(())
+    }
+
+    fn time(&self, _state: &State<f32>) -> f64 {
+        self.time
+    }
+
+    fn may_have_fracture_candidates(&self) -> bool {
+        self.last_report.spring_candidates > 0 || self.last_report.vertex_candidates > 0
+    }
+
+    fn sync_state(&mut self, state: &mut State<f32>) -> Result<(), StepError> {
+        if state.time != self.time || state.particle_q.len() != self.particle_count() {
+            self.read_state(state)?;
+        }
+        Ok(())
+    }
+
+    fn upload_state(&mut self, state: &State<f32>) -> Result<(), StepError> {
+        Ok(GpuSolver::upload_state(self, state)?)
+    }
+
+    /// A leak alone uploads the bodies' gas; anything else re-packs the model and uploads the blocks that differ.
+    fn notify_model_changed(&mut self, model: &Model<f32>, delta: &TopologyDelta) {
+        if delta.is_empty() {
+            if delta.gas {
+                self.sync_gas(model);
+            }
+        } else {
+            self.sync_model(model);
+        }
+    }
+
+    fn timers(&self) -> &StageTimers {
+        &self.timers
+    }
+
+    fn reset_timers(&mut self) {
+        self.timers.reset();
+    }
+
+    fn as_any(&self) -> &dyn std::any::Any {
+        self
+    }
+
+    fn as_any_mut(&mut self) -> &mut dyn std::any::Any {
+        self
+    }
+
+    fn name(&self) -> &'static str {
+        "gpu"
+    }
+}

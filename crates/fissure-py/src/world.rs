@@ -1,0 +1,196 @@
+//! `World`: the Rust `fissure::World` (the one stepping path: step, fracture, notify) behind a Python class.
+
+use crate::model::timers_dict;
+use crate::*;
+
+/// A model, its state, a solver and the fracture pass, stepped together.
+///
+/// The stepping is Rust's `fissure::World` (one stepping path for every front end). The Python objects `model`,
+/// `state` and `solver` stay live and shared with the caller: for each call their contents are moved into the Rust
+/// world (an O(1) swap of their arrays), stepped with the GIL released, and moved back.
+#[pyclass(module = "fissure._fissure")]
+pub struct World {
+    pub(crate) model: Py<Model>,
+    pub(crate) state: Py<State>,
+    pub(crate) solver: Py<Solver>,
+    /// The Rust world: holds the fracture pass and the events; its model, state and solver are the Python
+    /// objects' only while a call runs (between calls it holds the placeholders they were swapped with).
+    pub(crate) world: fissure::World<f32>,
+}
+
+pub(crate) fn event_dict<'py>(py: Python<'py>, e: &fissure::FractureEvent) -> PyResult<Bound<'py, PyDict>> {
+    let d = PyDict::new(py);
+    let kind = match e.kind {
+        fissure::FractureKind::Spring => "spring",
+        fissure::FractureKind::Core => "core",
+        fissure::FractureKind::Detach => "detach",
+    };
+    d.set_item("kind", kind)?;
+    d.set_item("time", e.time)?;
+    d.set_item("position", (e.position.x, e.position.y, e.position.z))?;
+    d.set_item("body", e.body)?;
+    d.set_item("spring", e.spring)?;
+    d.set_item("vertex", e.vertex)?;
+    d.set_item("new_particles", e.new_particles.clone())?;
+    d.set_item("new_body", e.new_body)?;
+    Ok(d)
+}
+
+impl World {
+    /// A Python world around a Rust one: its model, state and solver become the live Python objects.
+    pub(crate) fn from_world(py: Python<'_>, mut world: fissure::World<f32>) -> PyResult<Self> {
+        let model = Model { inner: world.model.clone() };
+        let state = State { inner: world.state.clone() };
+        let cpu = world.cpu_solver().ok_or_else(|| PyValueError::new_err("the Python World steps on the CPU"))?;
+        let solver = Solver { inner: std::mem::take(cpu) };
+        Ok(World { model: Py::new(py, model)?, state: Py::new(py, state)?, solver: Py::new(py, solver)?, world })
+    }
+
+    /// Runs `f` on the Rust world holding the Python objects' model, state and solver, with the GIL released.
+    fn with_world<T: Send>(
+        &mut self,
+        py: Python<'_>,
+        f: impl FnOnce(&mut fissure::World<f32>) -> Result<T, fissure::StepError> + Send,
+    ) -> PyResult<T> {
+        let mut model = self.model.borrow_mut(py);
+        let mut state = self.state.borrow_mut(py);
+        let mut solver = self.solver.borrow_mut(py);
+        model.check(&state)?;
+        let w = &mut self.world;
+        let swap = |w: &mut fissure::World<f32>, m: &mut Model, s: &mut State, sv: &mut Solver| {
+            std::mem::swap(&mut w.model, &mut m.inner);
+            std::mem::swap(&mut w.state, &mut s.inner);
+            if let Some(cpu) = w.cpu_solver() {
+                std::mem::swap(cpu, &mut sv.inner);
+            }
+        };
+        swap(w, &mut model, &mut state, &mut solver);
+        let out = py.detach(|| f(w));
+        swap(w, &mut model, &mut state, &mut solver);
+        out.map_err(value_err)
+    }
+
+    fn cut<'py>(&mut self, py: Python<'py>, index: usize, core: bool) -> PyResult<Vec<Bound<'py, PyDict>>> {
+        let count = {
+            let m = &self.model.borrow(py).inner;
+            if core { m.particle_count() } else { m.spring_count() }
+        };
+        if index >= count {
+            let what = if core { "particle" } else { "spring" };
+            return Err(PyIndexError::new_err(format!("{what} {index} out of range (model has {count})")));
+        }
+        let new = self.with_world(py, |w| if core { w.break_core(index) } else { w.break_spring(index) })?;
+        new.iter().map(|e| event_dict(py, e)).collect()
+    }
+}
+
+#[pymethods]
+impl World {
+    /// A world at the model's initial state. Fracture settings (used when the model has breakable bodies):
+    /// `max_events_per_step`, `averaged_window` [s] (None: instantaneous trigger), `discharge_coefficient`,
+    /// `gas_density` [kg/m^3], `start_time` [s].
+    #[new]
+    #[pyo3(signature = (model, *, integrator = Integrator::SYMPLECTIC_EULER, cg_tolerance = 1e-5, cg_max_iterations = 200, substep_safety = None,
+        max_events_per_step = 32, averaged_window = None, discharge_coefficient = 0.6, gas_density = 1.2,
+        start_time = 0.0))]
+    #[allow(clippy::too_many_arguments)]
+    fn new(
+        py: Python<'_>,
+        model: Py<Model>,
+        integrator: Integrator,
+        cg_tolerance: f64,
+        cg_max_iterations: usize,
+        substep_safety: Option<f64>,
+        max_events_per_step: usize,
+        averaged_window: Option<f64>,
+        discharge_coefficient: f64,
+        gas_density: f64,
+        start_time: f64,
+    ) -> PyResult<Self> {
+        let config = fissure::FractureConfig {
+            trigger: averaged_window.map_or(fissure::Trigger::Instant, |window| fissure::Trigger::Averaged { window }),
+            max_events_per_step,
+            discharge_coefficient,
+            gas_density,
+            start_time,
+            ..Default::default()
+        };
+        config.validate().map_err(|e| core_err(e, &[]))?;
+        let solver = Solver::new(integrator, cg_tolerance, cg_max_iterations, substep_safety)?;
+        let rust = {
+            let m = &model.borrow(py).inner;
+            fissure::World::new(m.clone(), solver.inner.config.clone()).with_fracture(config)
+        };
+        let state = model.borrow(py).state();
+        Ok(World { model, state: Py::new(py, state)?, solver: Py::new(py, solver)?, world: rust })
+    }
+
+    /// The model.
+    #[getter]
+    fn model(&self, py: Python<'_>) -> Py<Model> {
+        self.model.clone_ref(py)
+    }
+    /// The state (live: stepping the world changes it).
+    #[getter]
+    fn state(&self, py: Python<'_>) -> Py<State> {
+        self.state.clone_ref(py)
+    }
+    /// The solver.
+    #[getter]
+    fn solver(&self, py: Python<'_>) -> Py<Solver> {
+        self.solver.clone_ref(py)
+    }
+    /// Simulation time [s].
+    #[getter]
+    fn time(&self, py: Python<'_>) -> f64 {
+        self.state.borrow(py).inner.time
+    }
+    /// Every fracture event so far, as dicts: `kind` ("spring", "core" or "detach"), `time` [s], `position` [m],
+    /// `body`, `spring`, `vertex`, `new_particles`, `new_body`.
+    #[getter]
+    fn events<'py>(&self, py: Python<'py>) -> PyResult<Vec<Bound<'py, PyDict>>> {
+        self.world.events.iter().map(|e| event_dict(py, e)).collect()
+    }
+
+    /// `steps` steps of `dt` [s] (each followed by the fracture pass), GIL released. Returns the number of new
+    /// fracture events.
+    #[pyo3(signature = (dt, steps = 1))]
+    fn step(&mut self, py: Python<'_>, dt: f64, steps: usize) -> PyResult<usize> {
+        self.with_world(py, |w| {
+            let mut events = 0;
+            for _ in 0..steps {
+                events += w.step(dt)?.events.len();
+            }
+            Ok(events)
+        })
+    }
+
+    /// Advances by `duration` [s] in steps of at most `dt` [s], GIL released. Returns the number of new fracture
+    /// events.
+    fn advance(&mut self, py: Python<'_>, duration: f64, dt: f64) -> PyResult<usize> {
+        if !(dt.is_finite() && dt > 0.0 && duration.is_finite() && duration >= 0.0) {
+            return Err(PyValueError::new_err(format!(
+                "need dt > 0 and duration >= 0, got dt = {dt}, duration = {duration}"
+            )));
+        }
+        self.with_world(py, |w| Ok(w.advance(duration, dt)?.events.len()))
+    }
+
+    /// Breaks spring `index` now (a cut), whatever its strain; returns the events (empty if it could not break).
+    fn break_spring<'py>(&mut self, py: Python<'py>, index: usize) -> PyResult<Vec<Bound<'py, PyDict>>> {
+        self.cut(py, index, false)
+    }
+
+    /// Breaks particle `index` out as a core block now (a puncture); returns the events (empty if it could not:
+    /// pinned, on or next to an opening, or an odd valence).
+    fn break_core<'py>(&mut self, py: Python<'py>, index: usize) -> PyResult<Vec<Bound<'py, PyDict>>> {
+        self.cut(py, index, true)
+    }
+
+    /// Seconds spent per stage (solver stages and `fracture`), with `total` and `steps`.
+    fn timers<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
+        let mut t = fissure::Solver::timers(&self.solver.borrow(py).inner).clone();
+        t.merge_stages(self.world.fracture.timers());
+        timers_dict(py, &t)
+    }
+}

@@ -1,0 +1,211 @@
+//! [`World`]: a model, its state, a solver (CPU, or GPU with the `gpu` feature) and the fracture pass, stepped
+//! together. It is the one place that sequences the seed's step (forces, integration, collisions: the solver)
+//! and fracture (the fracture pass), and tells the solver what the fracture changed. The viewer, `fissure run`,
+//! the examples and the Python `World` all step through it; none keeps a loop of its own.
+//!
+//! **Time slicing, the same on every backend.** [`World::advance`] covers a duration in steps of `dt`, the last
+//! one shortened to land exactly. The fracture pass runs every [`World::fracture_every`] steps (default 1: after
+//! every step, as the seed's algorithm does) with the time those steps covered, on the CPU and on the GPU alike.
+//! When the model has nothing that can break and no leaking opening, no fracture work is done and a GPU runs a
+//! whole advance as one submission.
+//!
+//! **After a fracture** the pass's [`TopologyDelta`] goes to [`Solver::notify_model_changed`] (a GPU re-uploads
+//! what changed) and, when the state changed too (split particles), to [`Solver::upload_state`]. A leak alone
+//! only changes the bodies' gas.
+
+use fissure_core::*;
+
+/// What one [`World::step`] or [`World::advance`] did.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Advance {
+    /// Steps taken.
+    pub steps: usize,
+    /// Fracture events, in order (also appended to [`World::events`]).
+    pub events: Vec<FractureEvent>,
+    /// Whether the topology (particles, springs, triangles, bodies or openings) changed: a renderer or exporter
+    /// holding the mesh must re-read it.
+    pub topology_changed: bool,
+}
+
+impl Advance {
+    fn absorb(&mut self, delta: &TopologyDelta) {
+        self.events.extend_from_slice(&delta.events);
+        self.topology_changed |= !delta.is_empty();
+    }
+}
+
+/// A model, its state, a solver and the fracture pass, stepped together. See the module docs.
+pub struct World<R: Real = f32> {
+    /// The model (read-only during a step; parameters may be changed between steps: then tell the solver with
+    /// `world.solver.notify_model_changed(&world.model, &TopologyDelta::whole())`).
+    pub model: Model<R>,
+    /// Positions, velocities and time. Current after every [`World::step`] and [`World::advance`] on every
+    /// backend.
+    pub state: State<R>,
+    /// The backend: a [`CpuSolver`], or a GPU solver with the `gpu` feature ([`World::with_solver`]).
+    pub solver: Box<dyn Solver<R>>,
+    /// The fracture pass (does nothing unless the model has something breakable or a punctured gas body).
+    pub fracture: Fracture<R>,
+    /// Every fracture event so far, in order.
+    pub events: Vec<FractureEvent>,
+    /// Steps between two fracture passes (default 1: after every step). A larger value trades when fractures are
+    /// noticed for fewer state read-backs on a GPU; the pass then sees the time of all those steps at once.
+    pub fracture_every: usize,
+}
+
+impl<R: Real> World<R> {
+    /// A world at the model's initial state on the CPU solver with `config`, with the default fracture settings.
+    pub fn new(model: Model<R>, config: SolverConfig) -> Self {
+        Self::with_solver(model, Box::new(CpuSolver::<R>::new(config)))
+    }
+
+    /// A world at the model's initial state on `solver` (a GPU solver, say, built for this model).
+    pub fn with_solver(model: Model<R>, solver: Box<dyn Solver<R>>) -> Self {
+        let state = model.state();
+        World { model, state, solver, fracture: Fracture::default(), events: Vec::new(), fracture_every: 1 }
+    }
+
+    /// Replaces the fracture settings.
+    pub fn with_fracture(mut self, config: FractureConfig) -> Self {
+        self.fracture.config = config;
+        self
+    }
+
+    /// The CPU solver, if that is the backend (its stability bound, last substeps, forces).
+    pub fn cpu_solver(&mut self) -> Option<&mut CpuSolver<R>> {
+        self.solver.as_any_mut().downcast_mut::<CpuSolver<R>>()
+    }
+
+    /// One step of `dt` [s], then the fracture pass when its cadence falls due. Returns the events it produced
+    /// (they are appended to [`World::events`]).
+    pub fn step(&mut self, dt: f64) -> Result<Advance, StepError> {
+        check_dt(dt)?;
+        let mut out = Advance::default();
+        self.batch(dt, 1, &mut out)?;
+        self.solver.sync_state(&mut self.state)?;
+        Ok(out)
+    }
+
+    /// Advances by `duration` [s] in steps of `dt` [s], the last one shortened to land exactly.
+    pub fn advance(&mut self, duration: f64, dt: f64) -> Result<Advance, StepError> {
+        check_dt(dt)?;
+        if !(duration.is_finite() && duration >= 0.0) {
+            return Err(StepError::Config(format!("duration must be finite and >= 0 s, got {duration}")));
+        }
+        let mut out = Advance::default();
+        let end = self.solver.time(&self.state) + duration;
+        loop {
+            let t = self.solver.time(&self.state);
+            if t >= end - 1e-12 {
+                break;
+            }
+            let h = dt.min(end - t);
+            // Full steps of `dt` up to the next fracture pass (or to the end when nothing can break), counted
+            // with the same additions the solver makes to its clock.
+            let cap = if self.fracture_due() { self.fracture_every.max(1) } else { usize::MAX };
+            let (mut n, mut tt) = (1, t + h);
+            if h == dt {
+                while n < cap && tt < end - 1e-12 && dt <= end - tt {
+                    tt += dt;
+                    n += 1;
+                }
+            }
+            self.batch(h, n, &mut out)?;
+        }
+        self.solver.sync_state(&mut self.state)?;
+        Ok(out)
+    }
+
+    /// Breaks spring `sp` now, whatever its strain (a cut); the events (none if it cannot break).
+    pub fn break_spring(&mut self, sp: usize) -> Result<Vec<FractureEvent>, StepError> {
+        self.cut(sp, false)
+    }
+
+    /// Breaks particle `v` out as a core block now, whatever its load (a puncture); the events (none if it
+    /// cannot: pinned, on or next to an opening, an odd valence).
+    pub fn break_core(&mut self, v: usize) -> Result<Vec<FractureEvent>, StepError> {
+        self.cut(v, true)
+    }
+
+    fn cut(&mut self, index: usize, core: bool) -> Result<Vec<FractureEvent>, StepError> {
+        self.solver.sync_state(&mut self.state)?;
+        let (m, s) = (&mut self.model, &mut self.state);
+        let delta = if core { self.fracture.break_core(m, s, index) } else { self.fracture.break_spring(m, s, index) };
+        self.after_fracture(&delta)?;
+        self.events.extend_from_slice(&delta.events);
+        Ok(delta.events)
+    }
+
+    /// Per-stage timers of the solver and the fracture pass.
+    pub fn timers(&self) -> StageTimers {
+        let mut t = self.solver.timers().clone();
+        t.merge_stages(self.fracture.timers());
+        t
+    }
+
+    /// Clears the timers.
+    pub fn reset_timers(&mut self) {
+        self.solver.reset_timers();
+        self.fracture.reset_timers();
+    }
+
+    /// Whether the fracture pass has work: something can break, or a gas body has an opening.
+    fn fracture_due(&self) -> bool {
+        self.fracture.needed(&self.model)
+    }
+
+    /// `n` steps of `h`, then the fracture pass if it is due (the seed's steps 4 and 5).
+    fn batch(&mut self, h: f64, n: usize, out: &mut Advance) -> Result<(), StepError> {
+        self.solver.advance(&self.model, &mut self.state, h, n)?;
+        out.steps += n;
+        if !self.fracture_due() {
+            return Ok(());
+        }
+        // A GPU knows whether a limit was passed; a body with openings leaks whatever happened.
+        if !self.solver.may_have_fracture_candidates() && self.model.openings.is_empty() {
+            return Ok(());
+        }
+        self.solver.sync_state(&mut self.state)?;
+        let delta = self.fracture.apply(&mut self.model, &mut self.state, h * n as f64);
+        self.after_fracture(&delta)?;
+        out.absorb(&delta);
+        self.events.extend_from_slice(&delta.events);
+        Ok(())
+    }
+
+    /// Tells the solver what a fracture changed: the model's rows, and the state when particles were split.
+    fn after_fracture(&mut self, delta: &TopologyDelta) -> Result<(), StepError> {
+        if delta.is_nothing() {
+            return Ok(());
+        }
+        self.solver.notify_model_changed(&self.model, delta);
+        if !delta.is_empty() {
+            self.solver.upload_state(&self.state)?;
+        }
+        Ok(())
+    }
+}
+
+#[cfg(feature = "gpu")]
+impl World<f32> {
+    /// A world on the GPU: a [`crate::gpu::GpuSolver`] for `model` on `ctx`'s device, with `config`'s
+    /// integrator (symplectic Euler or velocity Verlet; the others have no kernels and are an error).
+    pub fn gpu(
+        model: Model<f32>,
+        config: &SolverConfig,
+        ctx: &crate::gpu::GpuContext,
+    ) -> Result<Self, crate::gpu::GpuError> {
+        let gpu_config = crate::gpu::GpuConfig { integrator: config.integrator, ..Default::default() };
+        let solver = crate::gpu::GpuSolver::new(ctx.device.clone(), ctx.queue.clone(), &model, gpu_config)?;
+        Ok(Self::with_solver(model, Box::new(solver)))
+    }
+
+    /// The GPU solver, if that is the backend (its position buffer for drawing, its passes, upload counters).
+    pub fn gpu_solver(&self) -> Option<&crate::gpu::GpuSolver> {
+        self.solver.as_any().downcast_ref::<crate::gpu::GpuSolver>()
+    }
+}
+
+fn check_dt(dt: f64) -> Result<(), StepError> {
+    if dt.is_finite() && dt > 0.0 { Ok(()) } else { Err(StepError::BadTimeStep(dt)) }
+}
