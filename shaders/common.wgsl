@@ -158,9 +158,9 @@ const MIN_VOLUME_FRACTION: f32 = 1e-3;
 
 // Net gas pressure `nRT / max(V, MIN_VOLUME_FRACTION V0) - P_ext` [Pa]; 0 without gas.
 // Rust twin: `fissure_core::forces::pressure::gas_pressure`.
-fn gas_pressure(gas: f32, volume: f32, rest_volume: f32, external: f32) -> f32 {
+fn gas_pressure(gas: f32, volume: f32, rest_volume: f32, p_ext: f32) -> f32 {
     if (gas <= 0.0) { return 0.0; }
-    return gas / max(volume, rest_volume * MIN_VOLUME_FRACTION) - external;
+    return gas / max(volume, rest_volume * MIN_VOLUME_FRACTION) - p_ext;
 }
 
 // Seed eq. (9): the pressure force on each corner of a triangle with cross vector `cross` under pressure `p`.

@@ -10,8 +10,8 @@
 //! whole advance as one submission.
 //!
 //! **After a fracture** the pass's [`TopologyDelta`] goes to [`Solver::notify_model_changed`] (a GPU re-uploads
-//! what changed) and, when the state changed too (split particles), to [`Solver::upload_state`]. A leak alone
-//! only changes the bodies' gas.
+//! what it names) and, when particles were split off, [`Solver::upload_new_particles`] gives it their state (a
+//! fracture never moves the others). A leak alone only changes the bodies' gas.
 
 use fissure_core::*;
 
@@ -179,8 +179,9 @@ impl<R: Real> World<R> {
             return Ok(());
         }
         self.solver.notify_model_changed(&self.model, delta);
-        if !delta.is_empty() {
-            self.solver.upload_state(&self.state)?;
+        // A fracture only appends particles (the others keep their state), so only the new ones are uploaded.
+        if self.model.particle_count() > delta.old_counts[0] {
+            self.solver.upload_new_particles(&self.state, delta.old_counts[0])?;
         }
         Ok(())
     }

@@ -509,3 +509,61 @@ fn renderer_draws_where_the_camera_projects_and_both_position_sources_agree() {
         .unwrap();
     assert_eq!(on_gpu, cpu, "the GPU buffer and the uploaded state draw differently");
 }
+
+/// Issue 14's contract: `Fracture::apply` (here a forced core split) returns a `TopologyDelta`, and the GPU
+/// re-packs and uploads only the rows it names. One split on a 2,562- and on a 40,962-vertex ball re-packs the
+/// same number of elements and uploads the same bytes (the 16× larger mesh adds nothing); and the delta-updated
+/// GPU model steps like the CPU's.
+#[test]
+fn a_core_split_uploads_and_repacks_the_change_not_the_mesh() {
+    let Some(ctx) = gpu() else { return };
+    let ball = |sub: u32| {
+        let mut b = ModelBuilder::new();
+        let opts = SoftBodyOptions {
+            gas: Gas::None,
+            fracture: Some(Breakable { load_limit: 1e9, ..Default::default() }),
+            ..Default::default()
+        };
+        b.add_soft_body(&Mesh::icosphere(0.25, sub).translated(DVec3::new(0.0, 1.0, 0.0)), &opts).unwrap();
+        b.finalize::<f32>().unwrap()
+    };
+    let mut figures = Vec::new();
+    for sub in [4, 6] {
+        let m = ball(sub);
+        let n = m.particle_count();
+        let model_bytes = n * 16 + m.spring_count() * 32 + m.tri_count() * 16;
+        let g = solver(&ctx, &m, Integrator::SymplecticEuler);
+        let mut w = World::with_solver(m, Box::new(g));
+        let events = w.break_core(n / 2).unwrap();
+        assert!(events.iter().any(|e| e.kind == FractureKind::Core), "vertex {} breaks out", n / 2);
+        check_invariants(&w.model).unwrap();
+        let gpu = w.gpu_solver().unwrap();
+        let (bytes, repacked) = (gpu.last_upload_bytes(), gpu.last_repacked());
+        eprintln!(
+            "{n} vertices: one core split re-packed {repacked} elements, uploaded {bytes} of {model_bytes} bytes"
+        );
+        figures.push((n, bytes, repacked, model_bytes));
+    }
+    let ((n0, b0, r0, _), (n1, b1, r1, mb1)) = (figures[0], figures[1]);
+    assert!(n1 > 15 * n0);
+    assert!(b1 <= b0 + b0 / 10 && r1 <= r0 + r0 / 10, "upload {b0} -> {b1} bytes, re-packed {r0} -> {r1}");
+    assert!(b1 * 100 < mb1, "{b1} bytes uploaded of a {mb1}-byte model");
+
+    // The delta-updated GPU model steps as the CPU's does after the same split.
+    let (mut cpu, mut gpu_world) = (World::new(ball(4), SolverConfig::default()), {
+        let m = ball(4);
+        let g = solver(&ctx, &m, Integrator::SymplecticEuler);
+        World::with_solver(m, Box::new(g))
+    });
+    for w in [&mut cpu, &mut gpu_world] {
+        w.advance(0.01, 1e-4).unwrap();
+        let v = w.model.particle_count() / 3;
+        assert!(!w.break_core(v).unwrap().is_empty());
+        w.advance(0.03, 1e-4).unwrap();
+    }
+    assert_eq!(cpu.model.particle_count(), gpu_world.model.particle_count());
+    let moved = rms_difference(&cpu.state, &ball(4).state());
+    let rms = rms_difference(&cpu.state, &gpu_world.state);
+    eprintln!("after the split: moved {moved:.3e} m RMS, GPU-CPU {rms:.3e} m RMS");
+    assert!(moved > 100.0 * rms && rms < 1e-4 * 0.5, "GPU and CPU differ by {rms} m after a split");
+}

@@ -20,7 +20,28 @@ pub struct Csr {
     pub garbage: usize,
     /// Items in rows (the sum of `len`).
     pub live: usize,
+    /// What changed since the log was last taken ([`Csr::take_edits`]): a mirror of the rows (the GPU's copy)
+    /// re-copies only the rows it names.
+    pub edits: EditLog,
 }
+
+/// The rows a [`Csr`] edited since the log was last taken, and whether it was compacted (every row moved).
+/// Not part of the rows' content: two `Csr`s with the same rows are equal whatever their logs.
+#[derive(Clone, Debug, Default)]
+pub struct EditLog {
+    /// Rows pushed, or with an item pushed, removed or replaced (with repeats, in edit order).
+    pub rows: Vec<u32>,
+    /// [`Csr::compact`] ran: every row may have moved.
+    pub compacted: bool,
+}
+
+impl PartialEq for EditLog {
+    fn eq(&self, _: &Self) -> bool {
+        true
+    }
+}
+
+impl Eq for EditLog {}
 
 impl Csr {
     /// Builds from `(row, item)` pairs by a stable counting sort: within a row, items keep the order of `pairs`,
@@ -43,7 +64,7 @@ impl Csr {
             items[*slot as usize] = it;
             *slot += 1;
         }
-        Csr { start, cap: len.clone(), len, live: acc as usize, items, garbage: 0 }
+        Csr { start, cap: len.clone(), len, live: acc as usize, items, garbage: 0, edits: EditLog::default() }
     }
 
     /// Number of rows.
@@ -63,7 +84,13 @@ impl Csr {
         self.start.push(self.items.len() as u32);
         self.len.push(0);
         self.cap.push(0);
+        self.edits.rows.push(self.rows() as u32 - 1);
         self.rows() - 1
+    }
+
+    /// The edit log so far, leaving an empty one.
+    pub fn take_edits(&mut self) -> EditLog {
+        std::mem::take(&mut self.edits)
     }
 
     /// Appends `item` to row `i` (after its existing items).
@@ -82,6 +109,7 @@ impl Csr {
         self.items[at] = item;
         self.len[i] += 1;
         self.live += 1;
+        self.edits.rows.push(i as u32);
     }
 
     /// Removes the first occurrence of `item` from row `i`, keeping the order of the others; false if absent.
@@ -92,6 +120,7 @@ impl Csr {
                 self.items.copy_within(s + k + 1..s + l, s + k);
                 self.len[i] -= 1;
                 self.live -= 1;
+                self.edits.rows.push(i as u32);
                 true
             }
             None => false,
@@ -104,6 +133,7 @@ impl Csr {
         match self.items[s..s + l].iter().position(|&x| x == old) {
             Some(k) => {
                 self.items[s + k] = new;
+                self.edits.rows.push(i as u32);
                 true
             }
             None => false,
@@ -128,6 +158,7 @@ impl Csr {
         }
         self.items = items;
         self.garbage = 0;
+        self.edits.compacted = true;
     }
 }
 

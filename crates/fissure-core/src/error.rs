@@ -147,7 +147,7 @@ pub enum StepError {
         stable_dt: f64,
     },
     /// The time step is not positive and finite.
-    #[error("time step must be positive and finite, got {0}")]
+    #[error("time step `dt` must be positive and finite, got {0}")]
     BadTimeStep(f64),
     /// The state does not belong to this model.
     #[error("state has {state} particles but the model has {model}")]

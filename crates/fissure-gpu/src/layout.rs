@@ -156,42 +156,70 @@ pub(crate) struct Packed {
     pub tri_offset: usize,
 }
 
+/// Particle `i` as the kernels read it.
+pub(crate) fn pack_particle(m: &Model<f32>, i: usize) -> GpuParticle {
+    let lim = m.particle_load_limit[i];
+    GpuParticle {
+        mass: m.particle_mass[i],
+        inv_mass: m.particle_inv_mass[i],
+        body: m.particle_body[i],
+        load_limit: if lim.is_finite() { lim } else { -1.0 },
+    }
+}
+
+/// Particle `i`'s adjacency header: its spring row, then its triangle row (offset by `tri_offset` in `adj`).
+pub(crate) fn pack_row(m: &Model<f32>, i: usize, tri_offset: usize) -> [u32; 4] {
+    let (sp, tr) = (&m.particle_springs, &m.particle_tris);
+    [sp.start[i], sp.len[i], tr.start[i] + tri_offset as u32, tr.len[i]]
+}
+
+/// Spring `s` as the kernels read it (a broken spring, or one without a limit, has no strain limit: -1).
+pub(crate) fn pack_spring(m: &Model<f32>, s: usize) -> GpuSpring {
+    let lim = m.spring_strain_limit[s];
+    let live = m.spring_kind[s] != SpringKind::Broken;
+    GpuSpring {
+        rest: m.spring_rest_length[s],
+        ks: m.spring_stiffness[s],
+        kd: m.spring_damping[s],
+        strain_limit: if live && lim.is_finite() { lim } else { -1.0 },
+    }
+}
+
+/// Triangle `t` with its body.
+pub(crate) fn pack_tri(m: &Model<f32>, t: usize) -> [u32; 4] {
+    let [a, b, c] = m.tri_indices[t];
+    [a, b, c, m.tri_body[t]]
+}
+
 impl Packed {
     /// Packs `m`. The triangle rows go after the spring rows in `adj`, at `tri_offset` (or right after them if
     /// they are longer): keeping that offset fixed as the spring rows grow keeps a fracture's upload local.
     pub fn new(m: &Model<f32>, tri_offset: usize) -> Self {
         let mut p = Packed::default();
-        p.particles.extend((0..m.particle_count()).map(|i| {
-            let lim = m.particle_load_limit[i];
-            GpuParticle {
-                mass: m.particle_mass[i],
-                inv_mass: m.particle_inv_mass[i],
-                body: m.particle_body[i],
-                load_limit: if lim.is_finite() { lim } else { -1.0 },
-            }
-        }));
+        p.particles.extend((0..m.particle_count()).map(|i| pack_particle(m, i)));
         p.any_load_limit = p.particles.iter().any(|q| q.load_limit >= 0.0);
         let (sp, tr) = (&m.particle_springs, &m.particle_tris);
         let off = tri_offset.max(sp.items.len());
         p.tri_offset = off;
-        let off32 = off as u32;
-        p.rows.extend((0..m.particle_count()).map(|i| [sp.start[i], sp.len[i], tr.start[i] + off32, tr.len[i]]));
+        p.rows.extend((0..m.particle_count()).map(|i| pack_row(m, i, off)));
         p.adj.extend_from_slice(&sp.items);
         p.adj.resize(off, 0);
         p.adj.extend_from_slice(&tr.items);
         p.spring_ends.extend_from_slice(&m.spring_indices);
-        p.springs.extend((0..m.spring_count()).map(|s| {
-            let lim = m.spring_strain_limit[s];
-            let live = m.spring_kind[s] != SpringKind::Broken;
-            GpuSpring {
-                rest: m.spring_rest_length[s],
-                ks: m.spring_stiffness[s],
-                kd: m.spring_damping[s],
-                strain_limit: if live && lim.is_finite() { lim } else { -1.0 },
-            }
-        }));
+        p.springs.extend((0..m.spring_count()).map(|s| pack_spring(m, s)));
         p.any_strain_limit = p.springs.iter().any(|s| s.strain_limit >= 0.0);
-        p.tris.extend(m.tri_indices.iter().zip(&m.tri_body).map(|(t, &b)| [t[0], t[1], t[2], b]));
+        p.tris.extend((0..m.tri_count()).map(|t| pack_tri(m, t)));
+        p.pack_bodies(m);
+        p
+    }
+
+    /// Re-packs the bodies, the gas bodies' openings and the caps index: O(bodies + opening loops), plus
+    /// O(particles) for the caps index when a gas body has openings.
+    pub fn pack_bodies(&mut self, m: &Model<f32>) {
+        let p = self;
+        p.bodies.clear();
+        p.openings.clear();
+        p.caps.clear();
         let mut gas_bodies = Vec::new();
         p.bodies.extend((0..m.body_count()).map(|b| {
             let gas = m.body_gas_amount[b];
@@ -239,7 +267,6 @@ impl Packed {
             }
             p.caps.extend(items_all);
         }
-        p
     }
 }
 
@@ -358,6 +385,43 @@ impl<T: Pod> Mirror<T> {
         }
         self.host.clear();
         self.host.extend_from_slice(data);
+        (false, written)
+    }
+}
+
+impl<T: Pod> Mirror<T> {
+    /// Makes the GPU copy equal `data` at the sorted indices `idx` (the rest is unchanged by contract): one write
+    /// per run of consecutive indices, no comparison of the rest. Returns `(reallocated, bytes written)`; data that
+    /// outgrows the buffer reallocates and writes everything (the caller then rebinds).
+    pub fn write_items(
+        &mut self,
+        device: &wgpu::Device,
+        queue: &wgpu::Queue,
+        data: &[T],
+        idx: &[u32],
+    ) -> (bool, usize) {
+        if data.len() > self.capacity {
+            return self.sync(device, queue, data);
+        }
+        self.host.resize(data.len(), T::zeroed());
+        let mut written = 0;
+        let mut k = 0;
+        while k < idx.len() {
+            let a = idx[k] as usize;
+            let mut b = a + 1;
+            k += 1;
+            while k < idx.len() && idx[k] as usize == b {
+                b += 1;
+                k += 1;
+            }
+            if b > data.len() {
+                break;
+            }
+            self.host[a..b].copy_from_slice(&data[a..b]);
+            let bytes = bytemuck::cast_slice::<T, u8>(&data[a..b]);
+            queue.write_buffer(&self.buffer, (a * size_of::<T>()) as u64, bytes);
+            written += bytes.len();
+        }
         (false, written)
     }
 }

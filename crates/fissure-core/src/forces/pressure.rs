@@ -11,7 +11,8 @@
 //! One formula for the pressure, [`gas_pressure`], with its volume clamp [`MIN_VOLUME_FRACTION`], serves every
 //! caller: the force pass, the implicit solver's Jacobian, the fracture load and leak, the energy and diagnostics.
 //!
-//! GPU twins: `body_volumes`, `body_pressures` and the triangle pass `tri_forces` in `shaders/surface.wgsl`.
+//! GPU twins: `gas_pressure`, `pressure_corner_force` and `MIN_VOLUME_FRACTION` in `shaders/common.wgsl`, used by
+//! the kernels `surface_cross`, `surface_caps`, `surface_volume` and `surface_force` in `shaders/surface.wgsl`.
 
 use super::ForceScratch;
 use crate::model::Model;

@@ -28,8 +28,8 @@ impl<R: Real> ForceScratch<R> {
 /// direction and no elastic force. Branch-free, so the span loops of the run kernel vectorise; every caller (the
 /// per-spring and run kernels, the fracture load, diagnostics) goes through this one function.
 ///
-/// GPU twin: `spring_force` in `shaders/common.wgsl` (used by `spring_forces` and `particle_forces` in
-/// `shaders/integrate.wgsl`).
+/// GPU twin: `spring_force_of` in `shaders/common.wgsl` (through `spring_force` in the integrators of
+/// `shaders/integrate.wgsl`, and `spring_elastic_force` in `load_check` of `shaders/fracture.wgsl`).
 #[inline(always)]
 pub fn force_components<R: Real, const PROJECTED: bool>(d: [R; 3], w: [R; 3], rest: R, ks: R, kd: R) -> [R; 3] {
     let l2 = d[0] * d[0] + d[1] * d[1] + d[2] * d[2];

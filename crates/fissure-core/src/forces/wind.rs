@@ -123,7 +123,7 @@ impl Aero {
 
 /// Drag and lift on a triangle with cross vector `c = 2 A n̂`, in relative air velocity `v` (see the module docs).
 ///
-/// GPU twin: `aero_force` in `shaders/surface.wgsl` (used by `tri_forces`).
+/// GPU twin: `aero_force` in `shaders/surface.wgsl` (used by the kernel `surface_force`).
 #[inline]
 pub(crate) fn aero_force<R: Real>(c: R::V, v: R::V, cd: R, cl: R, rho_half: R) -> R::V {
     let c_len = c.length();

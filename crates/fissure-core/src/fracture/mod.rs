@@ -211,6 +211,10 @@ pub struct TopologyDelta {
     pub old_counts: [usize; 4],
     /// Existing particles whose mass, body or load limit changed.
     pub particles: Vec<u32>,
+    /// Particles whose spring or triangle rows (adjacency lists) changed, new particles included.
+    pub rows: Vec<u32>,
+    /// The adjacency lists were compacted: every row may have moved (a mirror re-copies them all).
+    pub rows_compacted: bool,
     /// Existing springs that broke or moved an end.
     pub springs: Vec<u32>,
     /// Existing triangles that were rewritten.
@@ -230,6 +234,8 @@ impl TopologyDelta {
             && self.particles.is_empty()
             && self.springs.is_empty()
             && self.triangles.is_empty()
+            && self.rows.is_empty()
+            && !self.rows_compacted
             && !self.openings
             && !self.whole
     }
@@ -401,7 +407,7 @@ impl<R: Real> Fracture<R> {
         }
     }
 
-    fn begin(&mut self, m: &Model<R>) {
+    fn begin(&mut self, m: &mut Model<R>) {
         if self.mass_floor.is_none() {
             self.prepare(m);
         }
@@ -411,6 +417,8 @@ impl<R: Real> Fracture<R> {
         };
         self.step_gen = self.step_gen.wrapping_add(1);
         self.touched_list.clear();
+        m.particle_springs.take_edits();
+        m.particle_tris.take_edits();
     }
 
     fn finish(&mut self, m: &mut Model<R>) {
@@ -420,7 +428,13 @@ impl<R: Real> Fracture<R> {
         self.update_openings(m);
         m.particle_springs.compact_if_sparse();
         m.particle_tris.compact_if_sparse();
-        for list in [&mut self.delta.particles, &mut self.delta.springs, &mut self.delta.triangles] {
+        for log in [m.particle_springs.take_edits(), m.particle_tris.take_edits()] {
+            self.delta.rows.extend(log.rows);
+            self.delta.rows_compacted |= log.compacted;
+        }
+        for list in
+            [&mut self.delta.particles, &mut self.delta.springs, &mut self.delta.triangles, &mut self.delta.rows]
+        {
             list.sort_unstable();
             list.dedup();
         }

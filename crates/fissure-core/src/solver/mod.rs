@@ -126,6 +126,11 @@ pub trait Solver<R: Real>: Send + Sync {
     fn upload_state(&mut self, _state: &State<R>) -> Result<(), StepError> {
         Ok(())
     }
+    /// Particles `from..` are new (a fracture split them off; the others' state is unchanged): take their
+    /// state (a GPU uploads just them). Default: nothing to do.
+    fn upload_new_particles(&mut self, _state: &State<R>, _from: usize) -> Result<(), StepError> {
+        Ok(())
+    }
     /// Tells the solver what changed in the model: after a fracture, the pass's [`TopologyDelta`]; after editing
     /// parameters by hand, [`TopologyDelta::whole`].
     fn notify_model_changed(&mut self, model: &Model<R>, delta: &TopologyDelta);

@@ -144,6 +144,10 @@ pub struct GpuSolver {
     last_report: RunReport,
     passes: Vec<&'static str>,
     last_upload: usize,
+    /// Elements (particles, rows, springs, triangles, bodies, ...) re-packed by the last model sync.
+    last_repacked: usize,
+    /// Particles `0..state_valid` hold a valid state on the GPU (a reallocation of the state buffers empties it).
+    state_valid: usize,
     timers: StageTimers,
 }
 
@@ -361,6 +365,8 @@ impl GpuSolver {
             last_report: RunReport::default(),
             passes: Vec::new(),
             last_upload: 0,
+            last_repacked: 0,
+            state_valid: 0,
             timers: StageTimers::default(),
         };
         s.write_params(model);
@@ -404,7 +410,14 @@ impl GpuSolver {
         &self.passes
     }
 
-    /// Bytes written to model buffers by the last [`GpuSolver::notify_model_changed`] (or creation).
+    /// Elements re-packed on the host by the last model sync (particles, adjacency rows and items, springs,
+    /// triangles, bodies): after a fracture, the size of the change.
+    pub fn last_repacked(&self) -> usize {
+        self.last_repacked
+    }
+
+    /// Bytes written to model buffers by the last [`GpuSolver::notify_model_changed`] (or creation), and to the
+    /// state by the upload of new particles after it.
     pub fn last_upload_bytes(&self) -> usize {
         self.last_upload
     }

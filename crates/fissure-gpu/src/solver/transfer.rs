@@ -2,6 +2,7 @@
 //! (re-packed and uploaded block-wise), and the [`Solver`] implementation `World` drives.
 
 use super::*;
+use crate::layout::{GpuParticle, GpuSpring};
 use fissure_core::{Solver, StepError, TopologyDelta};
 
 impl GpuSolver {
@@ -16,6 +17,31 @@ impl GpuSolver {
         self.queue.write_buffer(&self.qd[self.cur], 0, bytemuck::cast_slice(&pack(&state.particle_qd)));
         self.time = state.time;
         self.state_stale = false;
+        self.state_valid = n;
+        Ok(())
+    }
+
+    /// Writes the state of particles `from..` (new ones a fracture appended) to the GPU; everything when the
+    /// state buffers were reallocated since the last upload.
+    pub fn upload_new_particles(&mut self, state: &State<f32>, from: usize) -> Result<(), GpuError> {
+        let n = self.particle_count();
+        if state.particle_q.len() != n || state.particle_qd.len() != n {
+            return Err(GpuError::StateMismatch { state: state.particle_q.len(), model: n });
+        }
+        let from = from.min(self.state_valid);
+        if from == 0 {
+            let before = self.last_upload;
+            self.upload_state(state)?;
+            self.last_upload = before + n * 32;
+            return Ok(());
+        }
+        let pack = |v: &[Vec3]| v.iter().map(|x| [x.x, x.y, x.z, 0.0]).collect::<Vec<[f32; 4]>>();
+        let (q, qd) = (pack(&state.particle_q[from..]), pack(&state.particle_qd[from..]));
+        self.queue.write_buffer(&self.q[self.cur], (from * 16) as u64, bytemuck::cast_slice(&q));
+        self.queue.write_buffer(&self.qd[self.cur], (from * 16) as u64, bytemuck::cast_slice(&qd));
+        self.last_upload += (n - from) * 32;
+        self.state_stale = false;
+        self.state_valid = n;
         Ok(())
     }
 
@@ -66,6 +92,7 @@ impl GpuSolver {
     /// blocks per array). If particles were added, the state must be uploaded next ([`GpuSolver::upload_state`]).
     pub fn sync_model(&mut self, m: &Model<f32>) {
         let p = Packed::new(m, self.packed.tri_offset);
+        self.last_repacked = p.particles.len() + p.rows.len() + p.adj.len() + p.springs.len() + p.tris.len();
         let (d, q) = (&self.device, &self.queue);
         let mut realloc = false;
         let mut bytes = 0;
@@ -84,19 +111,7 @@ impl GpuSolver {
         add(self.caps.sync(d, q, &p.caps));
         let old_count = self.particle_count();
         self.packed = p;
-        let n = m.particle_count();
-        if n != old_count {
-            // Particles were added: the state must be uploaded before the next run (the old contents are not
-            // needed, so a reallocation copies nothing).
-            self.state_stale = true;
-            if n > self.state_capacity {
-                self.state_capacity = n + n / 4;
-                let mk = |l| layout::create(&self.device, l, self.state_capacity * 16, STATE_USAGE);
-                self.q = [mk("q0"), mk("q1")];
-                self.qd = [mk("qd0"), mk("qd1")];
-                realloc = true;
-            }
-        }
+        realloc |= self.grow_state(old_count, m.particle_count());
         if (0..4).any(|k| scratch_sizes(m, &self.packed)[k] > self.scratch.sized[k]) {
             self.scratch = scratch(&self.device, m, &self.packed);
             realloc = true;
@@ -107,6 +122,128 @@ impl GpuSolver {
             self.rebind();
         }
         self.last_upload = bytes;
+    }
+
+    /// Re-packs and uploads what `delta` names (a fracture's change): the new and changed particles, their
+    /// adjacency rows and items, the new and changed springs and triangles, and the bodies and openings when
+    /// they changed. Host work and upload follow the size of the change, not of the model; a compaction of the
+    /// adjacency lists, spring rows that outgrow their room, or a hand edit fall back to [`GpuSolver::sync_model`].
+    pub fn sync_delta(&mut self, m: &Model<f32>, delta: &TopologyDelta) {
+        let [n0, s0, t0, b0] = delta.old_counts;
+        let sp_items = m.particle_springs.items.len();
+        let whole = delta.whole
+            || delta.rows_compacted
+            || sp_items > self.packed.tri_offset
+            || n0 != self.packed.particles.len()
+            || s0 != self.packed.springs.len()
+            || t0 != self.packed.tris.len();
+        if whole {
+            return self.sync_model(m);
+        }
+        let (n, ns, nt) = (m.particle_count(), m.spring_count(), m.tri_count());
+        let merged = |changed: &[u32], old: usize, new: usize| {
+            let mut v: Vec<u32> = changed.iter().copied().filter(|&i| (i as usize) < old).collect();
+            v.extend(old as u32..new as u32);
+            v.sort_unstable();
+            v.dedup();
+            v
+        };
+        let p = &mut self.packed;
+        let off = p.tri_offset;
+        // Particles and their adjacency headers.
+        let mut pidx = merged(&delta.particles, n0, n);
+        pidx.extend(delta.rows.iter().copied().filter(|&i| (i as usize) < n0));
+        pidx.sort_unstable();
+        pidx.dedup();
+        p.particles.resize(n, GpuParticle::default());
+        p.rows.resize(n, [0; 4]);
+        for &i in &pidx {
+            p.particles[i as usize] = layout::pack_particle(m, i as usize);
+            p.rows[i as usize] = layout::pack_row(m, i as usize, off);
+            p.any_load_limit |= p.particles[i as usize].load_limit >= 0.0;
+        }
+        // The rows' items: spring rows at their start, triangle rows at `off` + their start.
+        let (sp, tr) = (&m.particle_springs, &m.particle_tris);
+        p.adj.resize(off + tr.items.len(), 0);
+        let mut aidx = Vec::new();
+        for &i in &delta.rows {
+            let i = i as usize;
+            for (csr, base) in [(sp, 0), (tr, off)] {
+                let (s, l) = (csr.start[i] as usize, csr.len[i] as usize);
+                p.adj[base + s..base + s + l].copy_from_slice(&csr.items[s..s + l]);
+                aidx.extend((base + s..base + s + l).map(|k| k as u32));
+            }
+        }
+        aidx.sort_unstable();
+        aidx.dedup();
+        // Springs and triangles.
+        let sidx = merged(&delta.springs, s0, ns);
+        p.springs.resize(ns, GpuSpring::default());
+        p.spring_ends.resize(ns, [0; 2]);
+        for &s in &sidx {
+            p.springs[s as usize] = layout::pack_spring(m, s as usize);
+            p.spring_ends[s as usize] = m.spring_indices[s as usize];
+            p.any_strain_limit |= p.springs[s as usize].strain_limit >= 0.0;
+        }
+        let tidx = merged(&delta.triangles, t0, nt);
+        p.tris.resize(nt, [0; 4]);
+        for &t in &tidx {
+            p.tris[t as usize] = layout::pack_tri(m, t as usize);
+        }
+        let bodies = m.body_count() != b0 || delta.openings || delta.gas;
+        if bodies {
+            p.pack_bodies(m);
+        }
+        self.last_repacked =
+            2 * pidx.len() + aidx.len() + sidx.len() + tidx.len() + if bodies { m.body_count() } else { 0 };
+        let (d, q) = (&self.device, &self.queue);
+        let mut realloc = false;
+        let mut bytes = 0;
+        let mut add = |(r, b): (bool, usize)| {
+            realloc |= r;
+            bytes += b;
+        };
+        add(self.particles.write_items(d, q, &p.particles, &pidx));
+        add(self.rows.write_items(d, q, &p.rows, &pidx));
+        add(self.adj.write_items(d, q, &p.adj, &aidx));
+        add(self.springs.write_items(d, q, &p.springs, &sidx));
+        add(self.spring_ends.write_items(d, q, &p.spring_ends, &sidx));
+        add(self.tris.write_items(d, q, &p.tris, &tidx));
+        if bodies {
+            add(self.bodies.sync(d, q, &p.bodies));
+            add(self.openings.sync(d, q, &p.openings));
+            add(self.caps.sync(d, q, &p.caps));
+        }
+        realloc |= self.grow_state(n0, n);
+        if (0..4).any(|k| scratch_sizes(m, &self.packed)[k] > self.scratch.sized[k]) {
+            self.scratch = scratch(&self.device, m, &self.packed);
+            realloc = true;
+        }
+        self.write_params(m);
+        bytes += size_of::<Params>();
+        if realloc {
+            self.rebind();
+        }
+        self.last_upload = bytes;
+    }
+
+    /// After the particle count went from `old` to `n`: the new particles' state must be uploaded before the next
+    /// run; buffers too small are reallocated (their contents are lost: then the whole state). True if reallocated.
+    fn grow_state(&mut self, old: usize, n: usize) -> bool {
+        if n == old {
+            return false;
+        }
+        self.state_stale = true;
+        self.state_valid = self.state_valid.min(old);
+        if n <= self.state_capacity {
+            return false;
+        }
+        self.state_capacity = n + n / 4;
+        let mk = |l| layout::create(&self.device, l, self.state_capacity * 16, STATE_USAGE);
+        self.q = [mk("q0"), mk("q1")];
+        self.qd = [mk("qd0"), mk("qd1")];
+        self.state_valid = 0;
+        true
     }
 
     /// Uploads the bodies' gas amounts after a leak (the state and topology unchanged). A body whose gas ran out
@@ -178,15 +315,20 @@ impl Solver<f32> for GpuSolver {
         Ok(GpuSolver::upload_state(self, state)?)
     }
 
-    /// A leak alone uploads the bodies' gas; anything else re-packs the model and uploads the blocks that differ.
+    /// A leak alone uploads the bodies' gas; a fracture re-packs and uploads what its delta names
+    /// ([`GpuSolver::sync_delta`]).
     fn notify_model_changed(&mut self, model: &Model<f32>, delta: &TopologyDelta) {
         if delta.is_empty() {
             if delta.gas {
                 self.sync_gas(model);
             }
         } else {
-            self.sync_model(model);
+            self.sync_delta(model, delta);
         }
+    }
+
+    fn upload_new_particles(&mut self, state: &State<f32>, from: usize) -> Result<(), StepError> {
+        Ok(GpuSolver::upload_new_particles(self, state, from)?)
     }
 
     fn timers(&self) -> &StageTimers {
