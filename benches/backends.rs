@@ -22,7 +22,7 @@ const DT: f64 = 1e-4;
 struct Case {
     name: String,
     model: Model<f32>,
-    /// Step [s]: below each scene's stability limit.
+    /// Step \[s\]: below each scene's stability limit.
     dt: f64,
 }
 

@@ -22,19 +22,19 @@ use std::time::Instant;
 pub struct Summary {
     /// Frames simulated.
     pub frames: usize,
-    /// Lowest y of any particle over the run [m].
+    /// Lowest y of any particle over the run \[m\].
     pub min_y: f64,
-    /// Deepest penetration into any collider seen after a step [m].
+    /// Deepest penetration into any collider seen after a step \[m\].
     pub max_penetration: f64,
-    /// Final centre of mass [m].
+    /// Final centre of mass \[m\].
     pub com: DVec3,
-    /// Final speed of the centre of mass [m/s].
+    /// Final speed of the centre of mass \[m/s\].
     pub speed: f64,
-    /// Volume at the start and at the end [m^3].
+    /// Volume at the start and at the end \[m^3\].
     pub volume: (f64, f64),
     /// Particles that touched an obstacle ball at some point.
     pub obstacle_contacts: usize,
-    /// Lowest particle at the end [m].
+    /// Lowest particle at the end \[m\].
     pub final_lowest: f64,
     /// PNG frames written (empty without an adapter or when not asked for).
     pub pngs: Vec<PathBuf>,

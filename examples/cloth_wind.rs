@@ -19,13 +19,13 @@ use std::path::PathBuf;
 /// What a run produced, for the final check and the tests.
 #[derive(Debug)]
 pub struct Summary {
-    /// Simulated time [s].
+    /// Simulated time \[s\].
     pub time: f64,
-    /// Mean displacement of the free particles along the mean wind at the end [m].
+    /// Mean displacement of the free particles along the mean wind at the end \[m\].
     pub downwind: f64,
     /// Largest spring strain seen at a frame.
     pub max_strain: f64,
-    /// Lowest particle seen at a frame [m].
+    /// Lowest particle seen at a frame \[m\].
     pub min_y: f64,
     /// Whether every position and velocity stayed finite.
     pub finite: bool,

@@ -21,17 +21,17 @@ use std::time::Instant;
 /// What a run produced, for the final check and the tests.
 #[derive(Debug)]
 pub struct Summary {
-    /// Simulated time [s].
+    /// Simulated time \[s\].
     pub time: f64,
     /// Every fracture event.
     pub events: Vec<FractureEvent>,
     /// Connected pieces at the start and at the end.
     pub pieces: (usize, usize),
-    /// The ball's (capped) volume at the first puncture and at the end [m^3].
+    /// The ball's (capped) volume at the first puncture and at the end \[m^3\].
     pub volume_after_puncture: Option<(f64, f64)>,
-    /// The ball's gas `nRT` at the start and at the end [J].
+    /// The ball's gas `nRT` at the start and at the end \[J\].
     pub gas: (f64, f64),
-    /// Deepest penetration into any collider seen after a frame [m].
+    /// Deepest penetration into any collider seen after a frame \[m\].
     pub max_penetration: f64,
     /// Whether every position and velocity stayed finite.
     pub finite: bool,
@@ -40,7 +40,7 @@ pub struct Summary {
 }
 
 impl Summary {
-    /// Events farther apart than `d` [m] from each other, counted greedily.
+    /// Events farther apart than `d` \[m\] from each other, counted greedily.
     pub fn places(&self, d: f64) -> usize {
         let mut seen: Vec<DVec3> = Vec::new();
         for e in &self.events {
@@ -79,7 +79,7 @@ fn penetration(model: &Model<f32>, state: &State<f32>) -> f64 {
     deepest
 }
 
-/// Runs the scene at `path` for `duration` [s] (the scene's own if `None`), printing progress when `verbose`,
+/// Runs the scene at `path` for `duration` \[s\] (the scene's own if `None`), printing progress when `verbose`,
 /// drawing every `pictures`-th frame when given.
 pub fn run(
     path: &Path,

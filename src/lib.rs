@@ -15,7 +15,7 @@
 //! let mut b = ModelBuilder::new();
 //! let ball = Mesh::icosphere(0.2, 2).translated(DVec3::new(0.0, 1.0, 0.0));
 //! b.add_soft_body(&ball, &SoftBodyOptions { gas: Gas::Pressure(3000.0), ..Default::default() })?;
-//! b.add_collider(Collider::ground(0.0));
+//! b.add_collider(Collider::ground(0.0))?;
 //! let mut world: World<f32> = World::new(b.finalize()?, SolverConfig::default());
 //! world.advance(0.5, 1e-4)?; // half a second in steps of 0.1 ms
 //! assert!(world.model.center_of_mass(&world.state).y < 1.0);

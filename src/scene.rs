@@ -5,46 +5,46 @@
 //! ```toml
 //! [solver]
 //! integrator = "symplectic_euler"   # symplectic_euler | velocity_verlet | rk4 | implicit_euler
-//! dt = 5e-5                         # [s]
-//! duration = 2.0                    # [s]
-//! gravity = [0.0, -9.81, 0.0]       # [m/s^2]
+//! dt = 5e-5                         # \[s\]
+//! duration = 2.0                    # \[s\]
+//! gravity = [0.0, -9.81, 0.0]       # \[m/s^2\]
 //! damping_model = "projected"       # projected (along springs) | unprojected (the seed's eq. 2)
 //!
 //! [fracture]                        # optional: the fracture pass's settings
-//! averaged_window = 0.002           # [s]; omit for the instantaneous trigger
+//! averaged_window = 0.002           # \[s\]; omit for the instantaneous trigger
 //! max_events_per_step = 8
 //!
 //! [[body]]
 //! shape = "icosphere"               # icosphere | cuboid | obj | cloth
-//! radius = 0.25                     # [m]
+//! radius = 0.25                     # \[m\]
 //! subdivisions = 3
-//! position = [0.0, 1.5, 0.0]        # [m]
-//! velocity = [0.5, 0.0, 0.0]        # [m/s]
-//! mass = 0.5                        # [kg]
-//! stiffness = 2500.0                # membrane E·h [N/m]
-//! pressure = 3000.0                 # [Pa]; 0: no gas
+//! position = [0.0, 1.5, 0.0]        # \[m\]
+//! velocity = [0.5, 0.0, 0.0]        # \[m/s\]
+//! mass = 0.5                        # \[kg\]
+//! stiffness = 2500.0                # membrane E·h \[N/m\]
+//! pressure = 3000.0                 # \[Pa\]; 0: no gas
 //! strain_limit = 0.3                # optional: spring mode
-//! load_limit = 4.0                  # optional: core mode [N]
+//! load_limit = 4.0                  # optional: core mode \[N\]
 //!
 //! [[body]]                          # an open sheet: no gas
 //! shape = "cloth"
 //! resolution = [32, 32]             # particles across and down
-//! width = 1.0                       # [m]; the particles are width / (across - 1) apart
+//! width = 1.0                       # \[m\]; the particles are width / (across - 1) apart
 //! orientation = "vertical"          # vertical (in the xy plane, facing +z) | horizontal (in the xz plane)
-//! position = [0.0, 1.6, 0.0]        # [m] the middle of the top edge (vertical) or of the sheet (horizontal)
+//! position = [0.0, 1.6, 0.0]        # \[m\] the middle of the top edge (vertical) or of the sheet (horizontal)
 //! pin = "top_corners"               # top_corners | top_edge | none
-//! mass = 0.3                        # [kg]
-//! stiffness = 400.0                 # structural springs, membrane E·h [N/m]
-//! shear = 100.0                     # optional: shear springs [N/m]
-//! bending = 20.0                    # optional: bending springs [N/m]
+//! mass = 0.3                        # \[kg\]
+//! stiffness = 400.0                 # structural springs, membrane E·h \[N/m\]
+//! shear = 100.0                     # optional: shear springs \[N/m\]
+//! bending = 20.0                    # optional: bending springs \[N/m\]
 //!
 //! [wind]
-//! velocity = [0.0, 0.0, 4.0]        # [m/s] mean wind
+//! velocity = [0.0, 0.0, 4.0]        # \[m/s\] mean wind
 //! gust_amplitude = 0.5              # optional: fraction of the mean speed (default 0.5)
-//! gust_frequency = 0.5              # optional [Hz] (default 0.5)
-//! gust_wavelength = 4.0             # optional [m] (default 4)
+//! gust_frequency = 0.5              # optional \[Hz\] (default 0.5)
+//! gust_wavelength = 4.0             # optional \[m\] (default 4)
 //! crosswind = 0.2                   # optional: fraction of the mean speed (default 0.2)
-//! air_density = 1.225               # optional [kg/m^3]
+//! air_density = 1.225               # optional \[kg/m^3\]
 //!
 //! [[collider]]
 //! shape = "ball"                    # ground | plane | ball | cuboid | capsule
@@ -232,7 +232,7 @@ pub struct Scene {
     /// Colliders.
     #[serde(default, rename = "collider")]
     pub colliders: Vec<ColliderSection>,
-    /// A walled room: a floor at y = 0 and four walls at ± this half width [m].
+    /// A walled room: a floor at y = 0 and four walls at ± this half width \[m\].
     #[serde(default)]
     pub room_half_width: Option<f32>,
     /// Wind.
@@ -249,11 +249,11 @@ pub struct Scene {
 pub struct SolverSection {
     /// Integrator: `symplectic_euler` (default), `velocity_verlet`, `rk4` or `implicit_euler`.
     pub integrator: IntegratorName,
-    /// Step [s]. Default 1e-4.
+    /// Step \[s\]. Default 1e-4.
     pub dt: f64,
-    /// Simulated time of a run [s]. Default 2.
+    /// Simulated time of a run \[s\]. Default 2.
     pub duration: f64,
-    /// Gravity [m/s^2]. Default (0, -9.81, 0).
+    /// Gravity \[m/s^2\]. Default (0, -9.81, 0).
     pub gravity: [f64; 3],
     /// Spring damping: `projected` (along the spring; default) or `unprojected` (the seed's eq. 2, which also
     /// damps shear and rotation of each spring).
@@ -280,15 +280,15 @@ impl Default for SolverSection {
 #[derive(Clone, Debug, Default, Deserialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct FractureSection {
-    /// Time constant of the averaged trigger [s]; none: instantaneous.
+    /// Time constant of the averaged trigger \[s\]; none: instantaneous.
     pub averaged_window: Option<f64>,
     /// Most splits per step. Default 32.
     pub max_events_per_step: Option<usize>,
     /// Orifice discharge coefficient. Default 0.6.
     pub discharge_coefficient: Option<f64>,
-    /// Gas density [kg/m^3]. Default 1.2.
+    /// Gas density \[kg/m^3\]. Default 1.2.
     pub gas_density: Option<f64>,
-    /// Simulated time before anything may break [s]. Default 0.
+    /// Simulated time before anything may break \[s\]. Default 0.
     pub start_time: Option<f64>,
 }
 
@@ -301,7 +301,7 @@ pub struct BodySection {
     /// Cloth: particles across and down.
     #[serde(default)]
     pub resolution: Option<[usize; 2]>,
-    /// Cloth width [m]. Default 1.
+    /// Cloth width \[m\]. Default 1.
     #[serde(default)]
     pub width: Option<f64>,
     /// Cloth: `vertical` (default) or `horizontal`.
@@ -310,16 +310,16 @@ pub struct BodySection {
     /// Cloth: `top_corners` (default), `top_edge` or `none`.
     #[serde(default)]
     pub pin: Option<Pin>,
-    /// Cloth shear springs, membrane stiffness [N/m]; none: no shear springs.
+    /// Cloth shear springs, membrane stiffness \[N/m\]; none: no shear springs.
     #[serde(default)]
     pub shear: Option<f64>,
-    /// Icosphere radius [m].
+    /// Icosphere radius \[m\].
     #[serde(default)]
     pub radius: Option<f64>,
     /// Icosphere subdivisions. Default 3.
     #[serde(default)]
     pub subdivisions: Option<u32>,
-    /// Cuboid half extents [m].
+    /// Cuboid half extents \[m\].
     #[serde(default)]
     pub half_extents: Option<[f64; 3]>,
     /// Cuboid cells per edge. Default 4.
@@ -328,31 +328,31 @@ pub struct BodySection {
     /// OBJ file, relative to the scene file.
     #[serde(default)]
     pub file: Option<String>,
-    /// Translation [m].
+    /// Translation \[m\].
     #[serde(default)]
     pub position: [f64; 3],
-    /// Initial velocity [m/s].
+    /// Initial velocity \[m/s\].
     #[serde(default)]
     pub velocity: [f64; 3],
-    /// Total mass [kg]. Default 1.
+    /// Total mass \[kg\]. Default 1.
     #[serde(default = "one")]
     pub mass: f64,
-    /// Membrane stiffness E·h [N/m]. Default 2000.
+    /// Membrane stiffness E·h \[N/m\]. Default 2000.
     #[serde(default = "default_stiffness")]
     pub stiffness: f64,
     /// Damping ratio. Default 0.05.
     #[serde(default = "default_damping")]
     pub damping_ratio: f64,
-    /// Bending membrane stiffness [N/m]; none: no bending springs.
+    /// Bending membrane stiffness \[N/m\]; none: no bending springs.
     #[serde(default)]
     pub bending: Option<f64>,
-    /// Gas pressure at rest [Pa]; 0: no gas. Default 2000 for closed bodies; a cloth has none.
+    /// Gas pressure at rest \[Pa\]; 0: no gas. Default 2000 for closed bodies; a cloth has none.
     #[serde(default)]
     pub pressure: Option<f64>,
     /// Strain limit of the springs (spring mode).
     #[serde(default)]
     pub strain_limit: Option<f64>,
-    /// Load limit of the vertices [N] (core mode).
+    /// Load limit of the vertices \[N\] (core mode).
     #[serde(default)]
     pub load_limit: Option<f64>,
     /// Keep the gas when punctured.
@@ -393,28 +393,28 @@ fn default_friction() -> f32 {
 pub struct ColliderSection {
     /// `ground`, `plane`, `ball`, `cuboid` or `capsule`.
     pub shape: ColliderShape,
-    /// Ground height [m].
+    /// Ground height \[m\].
     #[serde(default)]
     pub height: Option<f32>,
-    /// Plane point [m].
+    /// Plane point \[m\].
     #[serde(default)]
     pub point: Option<[f32; 3]>,
     /// Plane normal.
     #[serde(default)]
     pub normal: Option<[f32; 3]>,
-    /// Ball or cuboid centre [m].
+    /// Ball or cuboid centre \[m\].
     #[serde(default)]
     pub center: Option<[f32; 3]>,
-    /// Ball or capsule radius [m].
+    /// Ball or capsule radius \[m\].
     #[serde(default)]
     pub radius: Option<f32>,
-    /// Cuboid half extents [m].
+    /// Cuboid half extents \[m\].
     #[serde(default)]
     pub half_extents: Option<[f32; 3]>,
-    /// Capsule ends [m].
+    /// Capsule ends \[m\].
     #[serde(default)]
     pub a: Option<[f32; 3]>,
-    /// Capsule ends [m].
+    /// Capsule ends \[m\].
     #[serde(default)]
     pub b: Option<[f32; 3]>,
     /// Restitution. Default 0.3.
@@ -429,21 +429,21 @@ pub struct ColliderSection {
 #[derive(Clone, Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct WindSection {
-    /// Mean wind velocity [m/s].
+    /// Mean wind velocity \[m/s\].
     pub velocity: [f64; 3],
     /// Gust amplitude as a fraction of the mean speed. Default 0.5.
     #[serde(default)]
     pub gust_amplitude: Option<f64>,
-    /// Gust frequency [Hz]. Default 0.5.
+    /// Gust frequency \[Hz\]. Default 0.5.
     #[serde(default)]
     pub gust_frequency: Option<f64>,
-    /// Gust wavelength [m]. Default 4.
+    /// Gust wavelength \[m\]. Default 4.
     #[serde(default)]
     pub gust_wavelength: Option<f64>,
     /// Crosswind wobble as a fraction of the mean speed. Default 0.2.
     #[serde(default)]
     pub crosswind: Option<f64>,
-    /// Air density [kg/m^3]. Default 1.225.
+    /// Air density \[kg/m^3\]. Default 1.225.
     #[serde(default)]
     pub air_density: Option<f64>,
 }

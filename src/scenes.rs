@@ -6,17 +6,17 @@ use glam::{DVec3, Vec3};
 /// Parameters of [`ball_drop`].
 #[derive(Clone, Debug, PartialEq)]
 pub struct BallDrop {
-    /// Ball radius [m]. Default 0.25.
+    /// Ball radius \[m\]. Default 0.25.
     pub radius: f64,
     /// Icosphere subdivisions (3: 642 vertices). Default 3.
     pub subdivisions: u32,
-    /// Drop height of the ball's centre [m]. Default 1.6.
+    /// Drop height of the ball's centre \[m\]. Default 1.6.
     pub height: f64,
-    /// Initial gas pressure [Pa]. Default 2500.
+    /// Initial gas pressure \[Pa\]. Default 2500.
     pub pressure: f64,
-    /// Ball mass [kg]. Default 0.4.
+    /// Ball mass \[kg\]. Default 0.4.
     pub mass: f64,
-    /// Half the width of the square room [m]. Default 1.2.
+    /// Half the width of the square room \[m\]. Default 1.2.
     pub room_half_width: f32,
 }
 

@@ -38,9 +38,9 @@ use winit::window::{Window, WindowId};
 pub struct ViewerOptions {
     /// Window title.
     pub title: String,
-    /// Window size [px].
+    /// Window size \[px\].
     pub size: [u32; 2],
-    /// Simulated time per drawn frame [s]. Default 1/60.
+    /// Simulated time per drawn frame \[s\]. Default 1/60.
     pub frame_time: f64,
     /// Close after this many frames (for tests and screenshots).
     pub exit_after: Option<usize>,
@@ -102,7 +102,7 @@ impl Default for ViewerOptions {
 pub struct ViewerReport {
     /// Frames drawn.
     pub frames: usize,
-    /// Simulated time at the end [s].
+    /// Simulated time at the end \[s\].
     pub time: f64,
     /// Fracture events (including punctures).
     pub events: usize,
@@ -142,7 +142,7 @@ pub fn display_available() -> bool {
     }
 }
 
-/// Opens a window and runs `world` interactively, stepping by at most `dt` [s]; returns when the window closes.
+/// Opens a window and runs `world` interactively, stepping by at most `dt` \[s\]; returns when the window closes.
 /// `restart` rebuilds the world for the `r` key.
 pub fn run(
     world: World<f32>,
@@ -237,7 +237,7 @@ struct App {
     screenshot: Option<(PathBuf, bool)>,
 }
 
-/// Stiffness of the mouse spring as an angular frequency [rad/s]; it acts on acceleration, so it pulls a light
+/// Stiffness of the mouse spring as an angular frequency \[rad/s\]; it acts on acceleration, so it pulls a light
 /// and a heavy particle alike, and is critically damped.
 const DRAG_OMEGA: f32 = 40.0;
 

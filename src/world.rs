@@ -76,7 +76,7 @@ impl<R: Real> World<R> {
         self.solver.as_any_mut().downcast_mut::<CpuSolver<R>>()
     }
 
-    /// One step of `dt` [s], then the fracture pass when its cadence falls due. Returns the events it produced
+    /// One step of `dt` \[s\], then the fracture pass when its cadence falls due. Returns the events it produced
     /// (they are appended to [`World::events`]).
     pub fn step(&mut self, dt: f64) -> Result<Advance, StepError> {
         check_dt(dt)?;
@@ -86,7 +86,7 @@ impl<R: Real> World<R> {
         Ok(out)
     }
 
-    /// Advances by `duration` [s] in steps of `dt` [s], the last one shortened to land exactly.
+    /// Advances by `duration` \[s\] in steps of `dt` \[s\], the last one shortened to land exactly.
     pub fn advance(&mut self, duration: f64, dt: f64) -> Result<Advance, StepError> {
         check_dt(dt)?;
         if !(duration.is_finite() && duration >= 0.0) {

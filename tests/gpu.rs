@@ -44,7 +44,7 @@ fn noise(seed: &mut u64) -> f32 {
     ((*seed >> 40) as f32 / (1u64 << 24) as f32) * 2.0 - 1.0
 }
 
-/// The model's initial state, shaken: positions by up to `dx` [m], velocities by up to `dv` [m/s].
+/// The model's initial state, shaken: positions by up to `dx` \[m\], velocities by up to `dv` \[m/s\].
 fn shaken(m: &Model<f32>, dx: f32, dv: f32) -> State<f32> {
     let mut s = m.state();
     let mut seed = 7;

@@ -26,17 +26,17 @@ pub struct Collider {
     pub shape: SharedShape,
     /// Pose at time 0.
     pub pose: Pose,
-    /// Linear velocity [m/s] (constant).
+    /// Linear velocity \[m/s\] (constant).
     pub linear_velocity: Vec3,
-    /// Angular velocity [rad/s] about the pose's origin (constant).
+    /// Angular velocity \[rad/s\] about the pose's origin (constant).
     pub angular_velocity: Vec3,
     /// Restitution `e` in [0, 1] for normal impacts. Default 0.3.
     pub restitution: f32,
-    /// Normal speed [m/s] below which restitution is 0. Default 0.05.
+    /// Normal speed \[m/s\] below which restitution is 0. Default 0.05.
     pub restitution_threshold: f32,
     /// Coulomb friction coefficient `μ ≥ 0`. Default 0.4.
     pub friction: f32,
-    /// Skin thickness [m] kept between particles and the surface. Default 0.
+    /// Skin thickness \[m\] kept between particles and the surface. Default 0.
     pub margin: f32,
 }
 
@@ -179,7 +179,7 @@ impl Collider {
         self
     }
 
-    /// Sets the skin margin [m].
+    /// Sets the skin margin \[m\].
     pub fn with_margin(mut self, margin: f32) -> Self {
         self.margin = margin;
         self
@@ -191,14 +191,14 @@ impl Collider {
         self
     }
 
-    /// Sets a constant linear [m/s] and angular [rad/s] velocity.
+    /// Sets a constant linear \[m/s\] and angular \[rad/s\] velocity.
     pub fn with_velocity(mut self, linear: Vec3, angular: Vec3) -> Self {
         self.linear_velocity = linear;
         self.angular_velocity = angular;
         self
     }
 
-    /// Pose at time `t` [s].
+    /// Pose at time `t` \[s\].
     pub fn pose_at(&self, t: f64) -> Pose {
         let mut p = self.pose;
         p.translation += self.linear_velocity * t as f32;
@@ -209,7 +209,7 @@ impl Collider {
         p
     }
 
-    /// Velocity [m/s] of the collider's material at world point `x` when its pose is `pose`.
+    /// Velocity \[m/s\] of the collider's material at world point `x` when its pose is `pose`.
     pub fn velocity_at(&self, pose: &Pose, x: Vec3) -> Vec3 {
         self.linear_velocity + self.angular_velocity.cross(x - pose.translation)
     }

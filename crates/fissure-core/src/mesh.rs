@@ -76,7 +76,7 @@ impl Mesh {
         Ok(())
     }
 
-    /// Vertex positions [m].
+    /// Vertex positions \[m\].
     pub fn positions(&self) -> &[DVec3] {
         &self.positions
     }
@@ -106,7 +106,7 @@ impl Mesh {
         self.topology().is_closed()
     }
 
-    /// Signed enclosed volume [m^3], `1/6 Σ x0 · (x1 × x2)` taken about the centroid to limit round-off; positive
+    /// Signed enclosed volume \[m^3\], `1/6 Σ x0 · (x1 × x2)` taken about the centroid to limit round-off; positive
     /// for an outward-facing closed mesh.
     pub fn signed_volume(&self) -> f64 {
         let c = self.centroid();
@@ -120,17 +120,17 @@ impl Mesh {
             / 6.0
     }
 
-    /// Total surface area [m^2].
+    /// Total surface area \[m^2\].
     pub fn area(&self) -> f64 {
         self.triangles.iter().map(|t| tri_area(&self.positions, t)).sum()
     }
 
-    /// Mean of the vertex positions [m].
+    /// Mean of the vertex positions \[m\].
     pub fn centroid(&self) -> DVec3 {
         self.positions.iter().copied().sum::<DVec3>() / self.positions.len() as f64
     }
 
-    /// Lengths of the shortest and longest edges [m].
+    /// Lengths of the shortest and longest edges \[m\].
     pub fn edge_length_range(&self) -> (f64, f64) {
         let mut lo = f64::INFINITY;
         let mut hi = 0.0f64;
@@ -166,12 +166,12 @@ impl Mesh {
         Mesh::new(self.positions.iter().map(|&p| f(p)).collect(), self.triangles.clone())
     }
 
-    /// A copy moved by `offset` [m].
+    /// A copy moved by `offset` \[m\].
     pub fn translated(&self, offset: DVec3) -> Mesh {
         Mesh { positions: self.positions.iter().map(|&p| p + offset).collect(), triangles: self.triangles.clone() }
     }
 
-    /// Icosphere of `radius` [m]: an icosahedron subdivided `subdivisions` times, vertices projected onto the
+    /// Icosphere of `radius` \[m\]: an icosahedron subdivided `subdivisions` times, vertices projected onto the
     /// sphere. `10·4^s + 2` vertices, `20·4^s` triangles (s = 4: 2,562 vertices; s = 6: 40,962).
     pub fn icosphere(radius: f64, subdivisions: u32) -> Mesh {
         let t = (1.0 + 5f64.sqrt()) / 2.0;
@@ -232,7 +232,7 @@ impl Mesh {
         Mesh { positions: pos.into_iter().map(|p| p * radius).collect(), triangles: tris }
     }
 
-    /// A rectangular cloth grid of `nx × ny` vertices with `spacing` [m], in the XY plane (z = 0), x to the right,
+    /// A rectangular cloth grid of `nx × ny` vertices with `spacing` \[m\], in the XY plane (z = 0), x to the right,
     /// y downwards from 0 (row 0 is the top edge, y = 0; row j at y = -j·spacing). Vertex `(i, j)` is
     /// `j·nx + i`. Each quad is split along alternating diagonals so the grid has no preferred shear direction;
     /// normals point towards +z.
@@ -262,7 +262,7 @@ impl Mesh {
         Mesh { positions: pos, triangles: tris }
     }
 
-    /// A closed box centred at the origin with `half_extents` [m], each face split into `n × n` quads.
+    /// A closed box centred at the origin with `half_extents` \[m\], each face split into `n × n` quads.
     pub fn cuboid(half_extents: DVec3, n: usize) -> Mesh {
         let n = n.max(1);
         let mut pos: Vec<DVec3> = Vec::new();
@@ -297,7 +297,7 @@ impl Mesh {
         Mesh { positions: pos, triangles: tris }
     }
 
-    /// Merges vertices closer than `tolerance` [m] (a hash grid; each vertex maps to the first, lowest-index
+    /// Merges vertices closer than `tolerance` \[m\] (a hash grid; each vertex maps to the first, lowest-index
     /// vertex within reach) and drops vertices no triangle uses. OBJ exports split vertices at UV and normal
     /// seams, which leaves a "closed" sphere full of cracks; welding restores it.
     pub fn weld(positions: &[DVec3], triangles: &[[u32; 3]], tolerance: f64) -> Result<Mesh, MeshError> {
@@ -364,7 +364,7 @@ impl Mesh {
     }
 
     /// Loads a Wavefront OBJ (all objects merged, polygons triangulated), then welds vertices within
-    /// `weld_tolerance` [m] (pass `None` for 1e-6 of the bounding-box diagonal).
+    /// `weld_tolerance` \[m\] (pass `None` for 1e-6 of the bounding-box diagonal).
     pub fn load_obj(path: impl AsRef<Path>, weld_tolerance: Option<f64>) -> Result<Mesh, MeshError> {
         let path = path.as_ref();
         let text = std::fs::read_to_string(path)
@@ -416,7 +416,7 @@ impl Mesh {
     }
 }
 
-/// Area of triangle `t` [m^2].
+/// Area of triangle `t` \[m^2\].
 pub(crate) fn tri_area(p: &[DVec3], t: &[u32; 3]) -> f64 {
     let [a, b, c] = t.map(|i| p[i as usize]);
     0.5 * (b - a).cross(c - a).length()

@@ -66,14 +66,14 @@ impl StabilityBound {
         b
     }
 
-    /// The largest stable step [s] of `integrator` for this bound; infinite for the implicit integrator or a
+    /// The largest stable step \[s\] of `integrator` for this bound; infinite for the implicit integrator or a
     /// model without springs.
     pub fn max_dt(&self, integrator: Integrator) -> f64 {
         max_stable_dt_1dof(integrator, self.omega2, self.damping_rate)
     }
 }
 
-/// The largest step [s] for which `integrator` is stable on `a = -omega2 x - gamma v` (spectral radius of its
+/// The largest step \[s\] for which `integrator` is stable on `a = -omega2 x - gamma v` (spectral radius of its
 /// update matrix ≤ 1), by bisection to 1e-12 relative. Infinite for [`Integrator::ImplicitEuler`] (A-stable) and
 /// when both rates are zero.
 pub fn max_stable_dt_1dof(integrator: Integrator, omega2: f64, gamma: f64) -> f64 {

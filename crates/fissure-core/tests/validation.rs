@@ -15,7 +15,7 @@ fn named(e: ModelError) -> String {
 
 fn collider_error(c: Collider) -> String {
     let mut b = ModelBuilder::new();
-    let e = b.add_collider(c).err().expect("the collider is rejected");
+    let e = b.add_collider(c).expect_err("the collider is rejected");
     assert!(b.finalize::<f32>().is_err(), "nothing was added");
     named(e)
 }
@@ -51,7 +51,7 @@ fn bad_collider_material_and_pose_are_rejected() {
 
 fn ball_error(opts: SoftBodyOptions) -> String {
     let mut b = ModelBuilder::new();
-    named(b.add_soft_body(&Mesh::icosphere(0.2, 1), &opts).err().expect("the body is rejected"))
+    named(b.add_soft_body(&Mesh::icosphere(0.2, 1), &opts).expect_err("the body is rejected"))
 }
 
 #[test]

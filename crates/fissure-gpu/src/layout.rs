@@ -16,15 +16,15 @@ pub const NONE: u32 = u32::MAX;
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
 pub struct Params {
-    /// xyz gravity [m/s^2]; w 1 for projected damping, 0 for unprojected.
+    /// xyz gravity \[m/s^2\]; w 1 for projected damping, 0 for unprojected.
     pub gravity: [f32; 4],
     /// particles, springs, triangles, bodies.
     pub counts: [u32; 4],
     /// colliders, gas bodies, openings with caps, volume partial rows.
     pub counts2: [u32; 4],
-    /// xyz mean wind [m/s]; w air density [kg/m^3] (0 without wind).
+    /// xyz mean wind \[m/s\]; w air density \[kg/m^3\] (0 without wind).
     pub wind_u: [f32; 4],
-    /// gust amplitude, gust frequency [Hz], gust wavelength [m], crosswind fraction.
+    /// gust amplitude, gust frequency \[Hz\], gust wavelength \[m\], crosswind fraction.
     pub wind_p: [f32; 4],
     /// candidate capacity per kind, triangle forces present, caps present, 0.
     pub misc: [u32; 4],
@@ -34,9 +34,9 @@ pub struct Params {
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
 pub struct Clock {
-    /// Time [s].
+    /// Time \[s\].
     pub time: f32,
-    /// Step [s].
+    /// Step \[s\].
     pub dt: f32,
     /// Padding.
     pub pad: [f32; 2],
@@ -49,13 +49,13 @@ pub const CLOCK_STRIDE: u64 = 256;
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
 pub struct GpuParticle {
-    /// Mass [kg].
+    /// Mass \[kg\].
     pub mass: f32,
     /// Inverse mass [1/kg], 0 pinned.
     pub inv_mass: f32,
-    /// Body, or [`NONE`].
+    /// Body, or `NONE` (`u32::MAX`).
     pub body: u32,
-    /// Load limit [N], negative for none.
+    /// Load limit \[N\], negative for none.
     pub load_limit: f32,
 }
 
@@ -63,9 +63,9 @@ pub struct GpuParticle {
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
 pub struct GpuSpring {
-    /// Rest length [m].
+    /// Rest length \[m\].
     pub rest: f32,
-    /// Stiffness [N/m].
+    /// Stiffness \[N/m\].
     pub ks: f32,
     /// Damping [N s/m].
     pub kd: f32,
@@ -77,11 +77,11 @@ pub struct GpuSpring {
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
 pub struct GpuBody {
-    /// nRT [J].
+    /// nRT \[J\].
     pub gas: f32,
-    /// Outside pressure [Pa].
+    /// Outside pressure \[Pa\].
     pub p_ext: f32,
-    /// Rest volume [m^3].
+    /// Rest volume \[m^3\].
     pub rest_volume: f32,
     /// Drag coefficient.
     pub drag: f32,
@@ -89,7 +89,7 @@ pub struct GpuBody {
     pub lift: f32,
     /// Anchor particle of the volume sum.
     pub anchor: u32,
-    /// Index among the gas bodies, or [`NONE`].
+    /// Index among the gas bodies, or `NONE` (`u32::MAX`).
     pub gas_slot: u32,
     /// Padding.
     pub pad: u32,
@@ -101,15 +101,15 @@ pub struct GpuBody {
 pub struct GpuCollider {
     /// kind, grid offset, 0, 0.
     pub head: [u32; 4],
-    /// restitution, threshold [m/s], friction, margin [m].
+    /// restitution, threshold \[m/s\], friction, margin \[m\].
     pub material: [f32; 4],
-    /// Translation at time 0 [m].
+    /// Translation at time 0 \[m\].
     pub translation: [f32; 4],
     /// Rotation at time 0 (x, y, z, w).
     pub rotation: [f32; 4],
-    /// Linear velocity [m/s].
+    /// Linear velocity \[m/s\].
     pub linear_velocity: [f32; 4],
-    /// Angular velocity [rad/s].
+    /// Angular velocity \[rad/s\].
     pub angular_velocity: [f32; 4],
     /// Shape parameters (see the WGSL).
     pub a: [f32; 4],

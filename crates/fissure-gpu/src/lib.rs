@@ -14,7 +14,7 @@
 //! let mut b = ModelBuilder::new();
 //! let ball = Mesh::icosphere(0.2, 3).translated(DVec3::new(0.0, 1.0, 0.0));
 //! b.add_soft_body(&ball, &SoftBodyOptions { gas: Gas::Pressure(3000.0), ..Default::default() })?;
-//! b.add_collider(Collider::ground(0.0));
+//! b.add_collider(Collider::ground(0.0))?;
 //! let model: Model<f32> = b.finalize()?;
 //! let ctx = GpuContext::new()?; // or bring your own wgpu::Device and Queue
 //! let mut gpu = GpuSolver::new(ctx.device.clone(), ctx.queue.clone(), &model, GpuConfig::default())?;

@@ -7,7 +7,7 @@
 use glam::Vec3;
 use parry3d::shape::Shape;
 
-/// A signed-distance field on a regular grid in the shape's local frame [m].
+/// A signed-distance field on a regular grid in the shape's local frame \[m\].
 #[derive(Clone, Debug, PartialEq)]
 pub struct SdfGrid {
     /// Position of node (0, 0, 0).

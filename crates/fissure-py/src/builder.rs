@@ -69,7 +69,7 @@ pub(crate) fn add_collider(
 
 #[pymethods]
 impl ModelBuilder {
-    /// An empty builder with `gravity` [m/s^2].
+    /// An empty builder with `gravity` \[m/s^2\].
     #[new]
     #[pyo3(signature = (*, gravity = (0.0, -9.81, 0.0), damping_model = DampingModel::PROJECTED))]
     fn new(gravity: (f64, f64, f64), damping_model: DampingModel) -> PyResult<Self> {
@@ -82,7 +82,7 @@ impl ModelBuilder {
         Ok(ModelBuilder { inner })
     }
 
-    /// Adds one particle of `mass` [kg] (0 pins it); returns its index.
+    /// Adds one particle of `mass` \[kg\] (0 pins it); returns its index.
     #[pyo3(signature = (position, velocity = (0.0, 0.0, 0.0), *, mass))]
     fn add_particle(&mut self, position: (f64, f64, f64), velocity: (f64, f64, f64), mass: f64) -> PyResult<usize> {
         self.inner.add_particle(vec3("position", position)?, vec3("velocity", velocity)?, mass).map_err(value_err)
@@ -186,7 +186,7 @@ impl ModelBuilder {
         handle_dict(py, h)
     }
 
-    /// Adds an `nx × ny` cloth grid with structural, shear and bending springs [N/m], placed with its top-left
+    /// Adds an `nx × ny` cloth grid with structural, shear and bending springs \[N/m\], placed with its top-left
     /// corner at `origin`, x to the right, rows along `down` (default -y), in the plane they span.
     #[pyo3(signature = (nx, ny, spacing, *, origin = (0.0, 0.0, 0.0), down = (0.0, -1.0, 0.0),
         mass = None, area_density = None, particle_mass = None, spring_stiffness = 1000.0, shear = 1000.0,
@@ -258,7 +258,7 @@ impl ModelBuilder {
         add_collider(&mut self.inner, c, "point", (restitution, friction, margin))
     }
 
-    /// A solid ball collider, optionally moving at `velocity` [m/s].
+    /// A solid ball collider, optionally moving at `velocity` \[m/s\].
     #[pyo3(signature = (center, radius, *, velocity = (0.0, 0.0, 0.0), restitution = 0.3, friction = 0.4, margin = 0.0))]
     fn add_ball(
         &mut self,

@@ -3,7 +3,7 @@
 use crate::*;
 
 /// A core error as `ValueError`; a bad parameter is named by its Python keyword (`rename` maps the core's name
-/// where the keyword differs): "`radius` must be finite and > 0 [m], got -1".
+/// where the keyword differs): "`radius` must be finite and > 0 \[m\], got -1".
 pub(crate) fn core_err(e: fissure::ModelError, rename: &[(&str, &str)]) -> PyErr {
     match e {
         fissure::ModelError::Parameter { name, value, expected } => {

@@ -35,7 +35,7 @@ pub use world::World;
 
 /// The compiled core of the `fissure` package.
 /// Reads a scene file (TOML, see `scenes/` and `fissure::scene`): returns a dict with `world` (a `World` at the
-/// scene's initial state, with its integrator and fracture settings), `dt` [s], `duration` [s] and `title`.
+/// scene's initial state, with its integrator and fracture settings), `dt` \[s\], `duration` \[s\] and `title`.
 /// Unknown keys and bad values raise `ValueError` naming the key; a missing file raises `OSError`.
 #[pyfunction]
 fn load_scene<'py>(py: Python<'py>, path: std::path::PathBuf) -> PyResult<Bound<'py, PyDict>> {

@@ -46,16 +46,16 @@ impl Model {
         let flat: Vec<u32> = self.inner.spring_indices.iter().flatten().copied().collect();
         numpy::PyArray1::from_vec(py, flat).reshape([self.inner.spring_count(), 2]).expect("S * 2 elements")
     }
-    /// Total mass [kg].
+    /// Total mass \[kg\].
     fn total_mass(&self) -> f64 {
         self.inner.total_mass()
     }
-    /// Enclosed volume of each body [m^3] (0 without gas).
+    /// Enclosed volume of each body \[m^3\] (0 without gas).
     fn body_volumes(&self, state: &State) -> PyResult<Vec<f64>> {
         self.check(state)?;
         Ok(self.inner.body_volumes(&state.inner))
     }
-    /// Gas pressure of each body [Pa].
+    /// Gas pressure of each body \[Pa\].
     fn body_pressures(&self, state: &State) -> PyResult<Vec<f64>> {
         self.check(state)?;
         Ok(self.inner.body_pressures(&state.inner))
@@ -65,12 +65,12 @@ impl Model {
         self.check(state)?;
         Ok(self.inner.momentum(&state.inner).into())
     }
-    /// Centre of mass [m].
+    /// Centre of mass \[m\].
     fn center_of_mass(&self, state: &State) -> PyResult<(f64, f64, f64)> {
         self.check(state)?;
         Ok(self.inner.center_of_mass(&state.inner).into())
     }
-    /// Energies [J]: kinetic, spring, gas, gravity, total.
+    /// Energies \[J\]: kinetic, spring, gas, gravity, total.
     fn energy<'py>(&self, py: Python<'py>, state: &State) -> PyResult<Bound<'py, PyDict>> {
         self.check(state)?;
         let e = self.inner.energy(&state.inner);
@@ -106,7 +106,7 @@ impl Model {
     }
 }
 
-/// Positions [m], velocities [m/s] and time [s].
+/// Positions \[m\], velocities \[m/s\] and time \[s\].
 #[pyclass(module = "fissure._fissure")]
 #[derive(Clone)]
 pub struct State {
@@ -135,7 +135,7 @@ impl State {
     fn set_velocities(&mut self, value: &Bound<'_, PyAny>) -> PyResult<()> {
         write_points("velocities", &mut self.inner.particle_qd, value)
     }
-    /// Simulation time [s].
+    /// Simulation time \[s\].
     #[getter]
     fn time(&self) -> f64 {
         self.inner.time
@@ -209,7 +209,7 @@ impl Solver {
         Ok(Solver { inner: fissure::CpuSolver::new(c) })
     }
 
-    /// Advances `state` by `steps` steps of `dt` [s], with the GIL released.
+    /// Advances `state` by `steps` steps of `dt` \[s\], with the GIL released.
     #[pyo3(signature = (model, state, dt, steps = 1))]
     fn step(&mut self, py: Python<'_>, model: &Model, state: &mut State, dt: f64, steps: usize) -> PyResult<()> {
         model.check(state)?;

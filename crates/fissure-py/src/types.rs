@@ -65,7 +65,7 @@ impl Mesh {
         Ok(Mesh { inner: RMesh::new(p, t).map_err(value_err)? })
     }
 
-    /// Icosphere of `radius` [m] with `subdivisions` (10·4^s + 2 vertices).
+    /// Icosphere of `radius` \[m\] with `subdivisions` (10·4^s + 2 vertices).
     #[staticmethod]
     fn icosphere(radius: f64, subdivisions: u32) -> PyResult<Self> {
         if !(radius.is_finite() && radius > 0.0) {
@@ -77,7 +77,7 @@ impl Mesh {
         Ok(Mesh { inner: RMesh::icosphere(radius, subdivisions) })
     }
 
-    /// An `nx × ny` grid with `spacing` [m] in the XY plane, row 0 at y = 0, rows going down.
+    /// An `nx × ny` grid with `spacing` \[m\] in the XY plane, row 0 at y = 0, rows going down.
     #[staticmethod]
     fn grid(nx: usize, ny: usize, spacing: f64) -> PyResult<Self> {
         if nx < 2 || ny < 2 || !(spacing.is_finite() && spacing > 0.0) {
@@ -99,7 +99,7 @@ impl Mesh {
         Ok(Mesh { inner: RMesh::cuboid(h, n) })
     }
 
-    /// Loads an OBJ file, welding vertices split at seams (tolerance [m]; default 1e-6 of the box diagonal).
+    /// Loads an OBJ file, welding vertices split at seams (tolerance \[m\]; default 1e-6 of the box diagonal).
     #[staticmethod]
     #[pyo3(signature = (path, *, weld_tolerance = None))]
     fn load_obj(path: std::path::PathBuf, weld_tolerance: Option<f64>) -> PyResult<Self> {
@@ -116,12 +116,12 @@ impl Mesh {
         self.inner.save_ply(path).map_err(value_err)
     }
 
-    /// A copy moved by `offset` [m].
+    /// A copy moved by `offset` \[m\].
     fn translated(&self, offset: (f64, f64, f64)) -> PyResult<Self> {
         Ok(Mesh { inner: self.inner.translated(vec3("offset", offset)?) })
     }
 
-    /// Positions, a new float64 `(V, 3)` array [m].
+    /// Positions, a new float64 `(V, 3)` array \[m\].
     #[getter]
     fn positions<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray2<f64>> {
         let flat: Vec<f64> = self.inner.positions().iter().flat_map(|p| p.to_array()).collect();
@@ -152,12 +152,12 @@ impl Mesh {
         self.inner.is_closed()
     }
 
-    /// Signed enclosed volume [m^3].
+    /// Signed enclosed volume \[m^3\].
     fn signed_volume(&self) -> f64 {
         self.inner.signed_volume()
     }
 
-    /// Surface area [m^2].
+    /// Surface area \[m^2\].
     fn area(&self) -> f64 {
         self.inner.area()
     }

@@ -87,8 +87,8 @@ impl World {
 #[pymethods]
 impl World {
     /// A world at the model's initial state. Fracture settings (used when the model has breakable bodies):
-    /// `max_events_per_step`, `averaged_window` [s] (None: instantaneous trigger), `discharge_coefficient`,
-    /// `gas_density` [kg/m^3], `start_time` [s].
+    /// `max_events_per_step`, `averaged_window` \[s\] (None: instantaneous trigger), `discharge_coefficient`,
+    /// `gas_density` \[kg/m^3\], `start_time` \[s\].
     #[new]
     #[pyo3(signature = (model, *, integrator = Integrator::SYMPLECTIC_EULER, cg_tolerance = 1e-5, cg_max_iterations = 200, substep_safety = None,
         max_events_per_step = 32, averaged_window = None, discharge_coefficient = 0.6, gas_density = 1.2,
@@ -140,19 +140,19 @@ impl World {
     fn solver(&self, py: Python<'_>) -> Py<Solver> {
         self.solver.clone_ref(py)
     }
-    /// Simulation time [s].
+    /// Simulation time \[s\].
     #[getter]
     fn time(&self, py: Python<'_>) -> f64 {
         self.state.borrow(py).inner.time
     }
-    /// Every fracture event so far, as dicts: `kind` ("spring", "core" or "detach"), `time` [s], `position` [m],
+    /// Every fracture event so far, as dicts: `kind` ("spring", "core" or "detach"), `time` \[s\], `position` \[m\],
     /// `body`, `spring`, `vertex`, `new_particles`, `new_body`.
     #[getter]
     fn events<'py>(&self, py: Python<'py>) -> PyResult<Vec<Bound<'py, PyDict>>> {
         self.world.events.iter().map(|e| event_dict(py, e)).collect()
     }
 
-    /// `steps` steps of `dt` [s] (each followed by the fracture pass), GIL released. Returns the number of new
+    /// `steps` steps of `dt` \[s\] (each followed by the fracture pass), GIL released. Returns the number of new
     /// fracture events.
     #[pyo3(signature = (dt, steps = 1))]
     fn step(&mut self, py: Python<'_>, dt: f64, steps: usize) -> PyResult<usize> {
@@ -165,7 +165,7 @@ impl World {
         })
     }
 
-    /// Advances by `duration` [s] in steps of at most `dt` [s], GIL released. Returns the number of new fracture
+    /// Advances by `duration` \[s\] in steps of at most `dt` \[s\], GIL released. Returns the number of new fracture
     /// events.
     fn advance(&mut self, py: Python<'_>, duration: f64, dt: f64) -> PyResult<usize> {
         if !(dt.is_finite() && dt > 0.0 && duration.is_finite() && duration >= 0.0) {

@@ -19,7 +19,7 @@ struct Point {
     steps: usize,
     dt: f64,
     wall: f64,
-    /// RMS error [m] (NaN: the run blew up).
+    /// RMS error \[m\] (NaN: the run blew up).
     err: f64,
     rel: f64,
 }

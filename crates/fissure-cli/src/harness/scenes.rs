@@ -12,9 +12,9 @@ pub struct Scene {
     pub about: String,
     /// The model.
     pub builder: ModelBuilder,
-    /// Simulated time [s].
+    /// Simulated time \[s\].
     pub t_end: f64,
-    /// A displacement [m] of one particle applied to the initial state (springs take their rest length from the
+    /// A displacement \[m\] of one particle applied to the initial state (springs take their rest length from the
     /// builder's positions, so a stretched start is set on the state).
     pub displace: Option<(usize, DVec3)>,
     /// Steps to cover `t_end` in the work–precision sweep, coarse to fine.
@@ -144,7 +144,7 @@ pub fn max_strain<R: Real>(m: &Model<R>, s: &State<R>) -> f64 {
         .fold(0.0, f64::max)
 }
 
-/// RMS over particles of `|a - b|` [m].
+/// RMS over particles of `|a - b|` \[m\].
 pub fn rms_diff(a: &[DVec3], b: &[DVec3]) -> f64 {
     let s: f64 = a.iter().zip(b).map(|(x, y)| (*x - *y).length_squared()).sum();
     (s / a.len().max(1) as f64).sqrt()

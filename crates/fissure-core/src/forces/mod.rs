@@ -1,6 +1,6 @@
 //! The force terms, one module per equation: [`spring`] (seed eqs. 1–2), [`pressure`] (eqs. 6–9) and [`wind`]
 //! (drag and lift), plus gravity. Each term is a flat pass over springs or triangles writing one value per
-//! element; then a per-particle gather over the CSR lists sums them ([`particle_force`]). No locks, no atomics,
+//! element; then a per-particle gather over the CSR lists sums them (`particle_force`). No locks, no atomics,
 //! one summation order: bit-identical results on any number of threads.
 //!
 //! The surface pass fuses the two triangle terms: one sweep takes each triangle's cross vector, the bodies'
@@ -18,25 +18,25 @@ use wind::aero_force;
 /// Reusable buffers of the force passes (allocated once per model size, never per step).
 #[derive(Clone, Debug, Default)]
 pub(crate) struct ForceScratch<R: Real> {
-    /// Force on spring end 0 (end 1 gets the negative) [N] (irregular meshes).
+    /// Force on spring end 0 (end 1 gets the negative) \[N\] (irregular meshes).
     pub spring_f: Vec<R::V>,
-    /// Sum of spring forces on each particle [N] (models made of spring runs).
+    /// Sum of spring forces on each particle \[N\] (models made of spring runs).
     pub particle_spring: Vec<R::V>,
     /// Whether the run kernel is used (`particle_spring` holds the sums) or the gather (`spring_f`).
     pub runs: bool,
-    /// `(x1 - x0) × (x2 - x0)` of each triangle [m^2].
+    /// `(x1 - x0) × (x2 - x0)` of each triangle \[m^2\].
     pub tri_cross: Vec<R::V>,
-    /// Force on each corner of each triangle (pressure + wind share) [N].
+    /// Force on each corner of each triangle (pressure + wind share) \[N\].
     pub tri_f: Vec<R::V>,
     /// Per-chunk, per-body partial sums of `6 V`.
     pub vol_partials: Vec<R>,
-    /// Volume of each body [m^3].
+    /// Volume of each body \[m^3\].
     pub body_volume: Vec<R>,
-    /// Net pressure of each body [Pa].
+    /// Net pressure of each body \[Pa\].
     pub body_pressure: Vec<R>,
-    /// `∂V/∂x` of the caps over the openings of gas bodies, per particle (empty without such openings) [m^2].
+    /// `∂V/∂x` of the caps over the openings of gas bodies, per particle (empty without such openings) \[m^2\].
     pub cap_g: Vec<R::V>,
-    /// Pressure force through the caps, per particle [N].
+    /// Pressure force through the caps, per particle \[N\].
     pub cap_f: Vec<R::V>,
     /// Particles with a nonzero entry in `cap_g` / `cap_f`.
     pub cap_touched: Vec<u32>,
@@ -154,7 +154,7 @@ impl<R: Real> ForceScratch<R> {
     }
 }
 
-/// Net force on particle `i` [N]: gravity, then its springs and triangles in CSR order.
+/// Net force on particle `i` \[N\]: gravity, then its springs and triangles in CSR order.
 #[inline(always)]
 pub(crate) fn particle_force<R: Real>(m: &Model<R>, s: &ForceScratch<R>, surface: bool, i: usize) -> R::V {
     let mut f = m.gravity * m.particle_mass[i];

@@ -23,27 +23,27 @@ use crate::real::{Real, Vector3};
 /// zero or changing sign.
 pub const MIN_VOLUME_FRACTION: f64 = 1e-3;
 
-/// `max(V, MIN_VOLUME_FRACTION · V0)` [m^3].
+/// `max(V, MIN_VOLUME_FRACTION · V0)` \[m^3\].
 #[inline]
 pub fn clamped_volume<R: Real>(volume: R, rest_volume: R) -> R {
     volume.max(rest_volume * R::from_f64(MIN_VOLUME_FRACTION))
 }
 
-/// Net gas pressure [Pa] of a body holding `gas = nRT` [J] at `volume` [m^3] (clamped, see
-/// [`MIN_VOLUME_FRACTION`]), less the outside pressure `external` [Pa]; 0 for a body without gas.
+/// Net gas pressure \[Pa\] of a body holding `gas = nRT` \[J\] at `volume` \[m^3\] (clamped, see
+/// [`MIN_VOLUME_FRACTION`]), less the outside pressure `external` \[Pa\]; 0 for a body without gas.
 #[inline]
 pub fn gas_pressure<R: Real>(gas: R, volume: R, rest_volume: R, external: R) -> R {
     if gas > R::ZERO { gas / clamped_volume(volume, rest_volume) - external } else { R::ZERO }
 }
 
 /// The pressure force on each corner of a triangle with cross vector `cross = (x1 - x0) × (x2 - x0)` under net
-/// pressure `p` [Pa]: `p · cross / 6` [N] (eq. 9, split equally over the corners).
+/// pressure `p` \[Pa\]: `p · cross / 6` \[N\] (eq. 9, split equally over the corners).
 #[inline(always)]
 pub fn corner_force<R: Real>(cross: R::V, p: R) -> R::V {
     cross * (p * R::from_f64(1.0 / 6.0))
 }
 
-/// Energy of the gas and the outside pressure relative to the rest volume [J]: `-nRT ln(V / V0) + P_ext (V - V0)`.
+/// Energy of the gas and the outside pressure relative to the rest volume \[J\]: `-nRT ln(V / V0) + P_ext (V - V0)`.
 pub fn gas_energy(gas: f64, volume: f64, rest_volume: f64, external: f64) -> f64 {
     -gas * (clamped_volume(volume, rest_volume) / rest_volume).ln() + external * (volume - rest_volume)
 }

@@ -1,9 +1,9 @@
 //! Springs: the seed's eqs. (1)–(2), Hooke's law along each edge of the mesh with damping, and the kernels that
-//! evaluate them: per spring for irregular meshes ([`ForceScratch::springs`] → `spring_f`, gathered per particle),
+//! evaluate them: per spring for irregular meshes (`ForceScratch::springs` → `spring_f`, gathered per particle),
 //! and per block of particles over spring runs (cloth grids: contiguous slices, vectorised, AVX2 when present).
 //!
 //! One formula, [`force_components`], serves every caller: both kernels, the fracture load
-//! ([`elastic_force`]), the implicit solver's Jacobian ([`implicit_coefficients`]) and the energy ([`potential`]).
+//! ([`elastic_force`]), the implicit solver's Jacobian (`implicit_coefficients`) and the energy ([`potential`]).
 
 use super::ForceScratch;
 use crate::model::{DampingModel, Model};
@@ -45,26 +45,26 @@ pub fn force_components<R: Real, const PROJECTED: bool>(d: [R; 3], w: [R; 3], re
     }
 }
 
-/// [`force_components`] on vectors: the force on end 0 of a spring with `d = xj - xi`, `dv = vj - vi` [N].
+/// [`force_components`] on vectors: the force on end 0 of a spring with `d = xj - xi`, `dv = vj - vi` \[N\].
 #[inline(always)]
 pub fn force<R: Real, const PROJECTED: bool>(d: R::V, dv: R::V, rest: R, ks: R, kd: R) -> R::V {
     let [x, y, z] = force_components::<R, PROJECTED>(d.to_array(), dv.to_array(), rest, ks, kd);
     R::V::new(x, y, z)
 }
 
-/// The elastic part alone, `ks (l - L0) d̂` [N] (the fracture load: the spring's pull on its end 0).
+/// The elastic part alone, `ks (l - L0) d̂` \[N\] (the fracture load: the spring's pull on its end 0).
 #[inline]
 pub fn elastic_force<R: Real>(d: R::V, rest: R, ks: R) -> R::V {
     force::<R, true>(d, R::V::ZERO, rest, ks, R::ZERO)
 }
 
-/// Strain `(l - L0) / L0` of a spring of length `l` [m] and rest length `rest` [m].
+/// Strain `(l - L0) / L0` of a spring of length `l` \[m\] and rest length `rest` \[m\].
 #[inline]
 pub fn strain<R: Real>(l: R, rest: R) -> R {
     (l - rest) / rest
 }
 
-/// Elastic energy `½ ks (l - L0)²` [J].
+/// Elastic energy `½ ks (l - L0)²` \[J\].
 #[inline]
 pub fn potential(l: f64, rest: f64, ks: f64) -> f64 {
     let d = l - rest;

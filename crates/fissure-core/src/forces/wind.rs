@@ -18,17 +18,17 @@ use glam::DVec3;
 /// A spatially and temporally varying wind. Units: m/s, Hz, m, kg/m^3.
 #[derive(Clone, Debug, PartialEq)]
 pub struct WindField {
-    /// Mean wind velocity `U` [m/s]. Default (3, 0, 0).
+    /// Mean wind velocity `U` \[m/s\]. Default (3, 0, 0).
     pub velocity: DVec3,
     /// Gust amplitude `a` as a fraction of the mean speed. Default 0.5.
     pub gust_amplitude: f64,
-    /// Gust frequency `f` [Hz]. Default 0.5.
+    /// Gust frequency `f` \[Hz\]. Default 0.5.
     pub gust_frequency: f64,
-    /// Gust wavelength `λ` along the wind [m]. Default 4.
+    /// Gust wavelength `λ` along the wind \[m\]. Default 4.
     pub gust_wavelength: f64,
     /// Crosswind wobble `b` as a fraction of the mean speed. Default 0.2.
     pub crosswind: f64,
-    /// Air density `ρ` [kg/m^3]. Default 1.225 (sea level, 15 °C).
+    /// Air density `ρ` \[kg/m^3\]. Default 1.225 (sea level, 15 °C).
     pub air_density: f64,
 }
 
@@ -76,7 +76,7 @@ impl WindField {
         Ok(())
     }
 
-    /// Wind velocity at point `x` [m] and time `t` [s].
+    /// Wind velocity at point `x` \[m\] and time `t` \[s\].
     pub fn sample(&self, x: DVec3, t: f64) -> DVec3 {
         let speed = self.velocity.length();
         if speed == 0.0 {

@@ -37,7 +37,7 @@
 //! **Openings and gas.** The boundary loops of a gas body are its openings ([`crate::model::Opening`]); the
 //! body's volume is taken with a virtual cap over each (and the gas pushes on the caps, so the pressure force
 //! stays conservative and sums to zero). Unless the body is sealed, gas leaks out through the openings by the
-//! orifice equation (after Mesit & Guha 2008, the seed's ref. [6]): the volume flow is
+//! orifice equation (after Mesit & Guha 2008, the seed's ref. \[6\]): the volume flow is
 //! `Q = C_d A sqrt(2 ΔP / ρ)` with `A` the openings' area and `ΔP = nRT/V - P_ext`; gas leaving at the inside
 //! pressure carries `nRT` away at `d(nRT)/dt = -(nRT / V) Q`, integrated exactly over a step as
 //! `nRT <- nRT exp(-Q dt / V)`. No inflow is modelled.
@@ -72,10 +72,10 @@ pub enum Trigger {
     /// The current strain (or load) passes the limit.
     Instant,
     /// The strain (or load) averaged over a window passes it: an exponential moving average with time constant
-    /// `window` [s] (after Bao, Hong, Teran & Fedkiw 2007). Raw thresholds fracture stiff materials arbitrarily,
+    /// `window` \[s\] (after Bao, Hong, Teran & Fedkiw 2007). Raw thresholds fracture stiff materials arbitrarily,
     /// on single-step spikes; the average needs a sustained overload.
     Averaged {
-        /// Time constant [s].
+        /// Time constant \[s\].
         window: f64,
     },
 }
@@ -89,16 +89,16 @@ pub struct FractureConfig {
     pub max_events_per_step: usize,
     /// Orifice discharge coefficient `C_d` of openings. Default 0.6 (a sharp-edged orifice).
     pub discharge_coefficient: f64,
-    /// Density `ρ` of the gas [kg/m^3] in the orifice equation. Default 1.2 (air).
+    /// Density `ρ` of the gas \[kg/m^3\] in the orifice equation. Default 1.2 (air).
     pub gas_density: f64,
-    /// Springs shorter than this at rest [m] do not split (a crack needs room). Default 1e-5.
+    /// Springs shorter than this at rest \[m\] do not split (a crack needs room). Default 1e-5.
     pub min_rest_length: f64,
     /// No split may leave a particle lighter than this fraction of the lightest breakable particle of the
     /// model as first seen. Each split shares masses out, and a fragment that keeps breaking would otherwise
     /// make ever lighter particles on the same springs (`ω = sqrt(k/m)` grows without bound) until the
     /// integrator goes unstable. Default 1/16 (a 4× higher frequency at most).
     pub min_mass_ratio: f64,
-    /// Simulated time [s] before which nothing breaks (the gas leak still runs). A pressurised body starts out of
+    /// Simulated time \[s\] before which nothing breaks (the gas leak still runs). A pressurised body starts out of
     /// equilibrium (its whole gas force unbalanced until the membrane stretches), and its load transient is not
     /// a fracture; let it settle. Default 0.
     pub start_time: f64,
@@ -166,9 +166,9 @@ pub enum FractureKind {
 pub struct FractureEvent {
     /// What broke.
     pub kind: FractureKind,
-    /// Simulation time [s].
+    /// Simulation time \[s\].
     pub time: f64,
-    /// Where [m]: the spring's midpoint, the core vertex, or the vertex where the piece came off.
+    /// Where \[m\]: the spring's midpoint, the core vertex, or the vertex where the piece came off.
     pub position: DVec3,
     /// The body it happened in.
     pub body: u32,
@@ -277,7 +277,7 @@ pub struct Fracture<R: Real = f32> {
     mark_gen: u64,
     /// Boundary vertices of each gas body.
     boundary: Vec<BTreeSet<u32>>,
-    /// The lightest particle a split may make [kg] (set on first use from `min_mass_ratio`).
+    /// The lightest particle a split may make \[kg\] (set on first use from `min_mass_ratio`).
     mass_floor: Option<R>,
     timers: StageTimers,
     delta: TopologyDelta,
@@ -322,7 +322,7 @@ impl<R: Real> Fracture<R> {
         m.has_fracture() || !m.openings.is_empty()
     }
 
-    /// Checks every breakable spring and vertex after a step of `dt` [s], splits those past their limits, lets
+    /// Checks every breakable spring and vertex after a step of `dt` \[s\], splits those past their limits, lets
     /// gas leak through the openings, and returns what it did: the events and what changed, which the solver
     /// must be told (`Solver::notify_model_changed`). `World` does both; call this directly only to drive a
     /// solver of your own.

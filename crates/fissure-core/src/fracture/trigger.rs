@@ -77,7 +77,7 @@ impl<R: Real> Fracture<R> {
         self.candidates.sort_by(|a, b| b.0.total_cmp(&a.0).then(a.1.cmp(&b.1)).then(a.2.cmp(&b.2)));
     }
 
-    /// Net gas pressure of each body [Pa] (capped volumes, volumes computed at most once per call of
+    /// Net gas pressure of each body \[Pa\] (capped volumes, volumes computed at most once per call of
     /// [`Fracture::apply`]).
     pub(super) fn pressures(&mut self, m: &Model<R>, s: &State<R>) -> Vec<f64> {
         if self.volumes.len() != m.body_count() {

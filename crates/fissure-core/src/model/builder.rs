@@ -79,7 +79,7 @@ impl ModelBuilder {
         }
     }
 
-    /// Sets gravity [m/s^2]; rejects a non-finite vector.
+    /// Sets gravity \[m/s^2\]; rejects a non-finite vector.
     pub fn gravity(&mut self, g: DVec3) -> Result<&mut Self, ModelError> {
         if let Some(&x) = g.to_array().iter().find(|x| !x.is_finite()) {
             return Err(ModelError::Parameter { name: "gravity", value: x, expected: "finite [m/s^2]" });
@@ -114,7 +114,7 @@ impl ModelBuilder {
         self.q.len()
     }
 
-    /// Adds a single particle of mass `mass` [kg] (0 pins it) at `x` with velocity `v`; returns its index.
+    /// Adds a single particle of mass `mass` \[kg\] (0 pins it) at `x` with velocity `v`; returns its index.
     /// For point-mass experiments; see [`ModelBuilder::add_spring`].
     pub fn add_particle(&mut self, x: DVec3, v: DVec3, mass: f64) -> Result<usize, ModelError> {
         check_nonneg("mass", mass)?;
@@ -133,7 +133,7 @@ impl ModelBuilder {
         Ok(self.q.len() - 1)
     }
 
-    /// Adds a spring between particles `i` and `j` with stiffness [N/m] and damping [N·s/m]; its rest length is
+    /// Adds a spring between particles `i` and `j` with stiffness \[N/m\] and damping \[N·s/m\]; its rest length is
     /// their current distance.
     pub fn add_spring(&mut self, i: usize, j: usize, stiffness: f64, damping: f64) -> Result<usize, ModelError> {
         let n = self.q.len();

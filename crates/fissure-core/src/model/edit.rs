@@ -117,7 +117,7 @@ pub(crate) fn add_particle<R: Real>(
     (m.particle_count() - 1) as u32
 }
 
-/// `m_i m_j / (m_i + m_j)` [kg].
+/// `m_i m_j / (m_i + m_j)` \[kg\].
 pub(crate) fn reduced<R: Real>(a: R, b: R) -> R {
     a * b / (a + b)
 }

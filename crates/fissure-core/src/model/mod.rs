@@ -31,11 +31,11 @@ pub use state::{Energy, State};
 /// Everything a step reads but does not write. See the crate docs for units.
 #[derive(Clone, Debug)]
 pub struct Model<R: Real = f32> {
-    /// Initial positions [m].
+    /// Initial positions \[m\].
     pub particle_q0: Vec<R::V>,
-    /// Initial velocities [m/s].
+    /// Initial velocities \[m/s\].
     pub particle_qd0: Vec<R::V>,
-    /// Mass [kg] (pinned particles keep theirs for accounting).
+    /// Mass \[kg\] (pinned particles keep theirs for accounting).
     pub particle_mass: Vec<R>,
     /// Inverse mass [1/kg]; 0 pins a particle.
     pub particle_inv_mass: Vec<R>,
@@ -43,17 +43,17 @@ pub struct Model<R: Real = f32> {
     pub particle_body: Vec<u32>,
     /// Spring ends `[i, j]`.
     pub spring_indices: Vec<[u32; 2]>,
-    /// Rest length `L0` [m].
+    /// Rest length `L0` \[m\].
     pub spring_rest_length: Vec<R>,
-    /// Stiffness `ks` [N/m].
+    /// Stiffness `ks` \[N/m\].
     pub spring_stiffness: Vec<R>,
-    /// Damping `kd` [N·s/m].
+    /// Damping `kd` \[N·s/m\].
     pub spring_damping: Vec<R>,
     /// What each spring represents.
     pub spring_kind: Vec<SpringKind>,
     /// Strain `(l - L0) / L0` past which each spring breaks (infinity: never).
     pub spring_strain_limit: Vec<R>,
-    /// Load [N] past which each particle breaks out as a core block (infinity: never); see the `fracture` module.
+    /// Load \[N\] past which each particle breaks out as a core block (infinity: never); see the `fracture` module.
     pub particle_load_limit: Vec<R>,
     /// Triangles, counter-clockwise from outside.
     pub tri_indices: Vec<[u32; 3]>,
@@ -61,11 +61,11 @@ pub struct Model<R: Real = f32> {
     pub tri_body: Vec<u32>,
     /// Kind of each body.
     pub body_kind: Vec<BodyKind>,
-    /// `nRT` [J] of each body's gas (0: none).
+    /// `nRT` \[J\] of each body's gas (0: none).
     pub body_gas_amount: Vec<R>,
-    /// Outside pressure [Pa].
+    /// Outside pressure \[Pa\].
     pub body_pressure_external: Vec<R>,
-    /// Volume at rest [m^3] (0 for open bodies). Volumes are clamped at [`crate::forces::pressure::MIN_VOLUME_FRACTION`] of it so an inverted body's
+    /// Volume at rest \[m^3\] (0 for open bodies). Volumes are clamped at [`crate::forces::pressure::MIN_VOLUME_FRACTION`] of it so an inverted body's
     /// pressure stays finite.
     pub body_rest_volume: Vec<R>,
     /// Drag coefficient.
@@ -80,14 +80,14 @@ pub struct Model<R: Real = f32> {
     pub openings: Vec<Opening>,
     /// Derived: some spring or particle can break (only then does the fracture pass do any work).
     pub breakable: bool,
-    /// Springs of each particle: entry `s << 1 | end`, `end` 0 for `spring_indices[s][0]`.
+    /// Springs of each particle: entry `s << 1 | end`, `end` 0 for `spring_indices[s]\[0\]`.
     pub particle_springs: Csr,
     /// Triangles of each particle.
     pub particle_tris: Csr,
     /// Maximal runs of consecutive springs whose ends advance together (see [`SpringRun`]); derived. Empty when
     /// the runs would be too short to pay (irregular meshes): the gather kernel is used then.
     pub spring_runs: Vec<SpringRun>,
-    /// Gravity [m/s^2].
+    /// Gravity \[m/s^2\].
     pub gravity: R::V,
     /// Damping form.
     pub damping_model: DampingModel,
@@ -179,12 +179,12 @@ impl<R: Real> Model<R> {
     pub fn has_colliders(&self) -> bool {
         !self.colliders.is_empty()
     }
-    /// Total mass [kg], summed in `f64`.
+    /// Total mass \[kg\], summed in `f64`.
     pub fn total_mass(&self) -> f64 {
         self.particle_mass.iter().map(|m| m.to_f64()).sum()
     }
 
-    /// Enclosed volume of each body [m^3] (0 for bodies without gas), `f64`.
+    /// Enclosed volume of each body \[m^3\] (0 for bodies without gas), `f64`.
     pub fn body_volumes(&self, state: &State<R>) -> Vec<f64> {
         let mut vol = vec![0.0; self.body_count()];
         // Runs of triangles of one body (the usual layout) accumulate in a register.
@@ -220,7 +220,7 @@ impl<R: Real> Model<R> {
         vol
     }
 
-    /// Total area [m^2] of the openings of body `b` (the area of their caps' vector sums), `f64`.
+    /// Total area \[m^2\] of the openings of body `b` (the area of their caps' vector sums), `f64`.
     pub fn opening_area(&self, state: &State<R>, b: usize) -> f64 {
         self.openings
             .iter()
@@ -234,12 +234,12 @@ impl<R: Real> Model<R> {
             .sum()
     }
 
-    /// Gas pressure `nRT / V` of each body [Pa] (0 without gas).
+    /// Gas pressure `nRT / V` of each body \[Pa\] (0 without gas).
     pub fn body_pressures(&self, state: &State<R>) -> Vec<f64> {
         self.body_volumes(state).iter().enumerate().map(|(b, &v)| self.gas_pressure(b, v)).collect()
     }
 
-    /// Gas pressure `nRT / V` [Pa] of body `b` at volume `v` [m^3] (clamped at
+    /// Gas pressure `nRT / V` \[Pa\] of body `b` at volume `v` \[m^3\] (clamped at
     /// [`crate::forces::pressure::MIN_VOLUME_FRACTION`] of the rest volume, as the force pass does); 0 without gas.
     pub fn gas_pressure(&self, b: usize, v: f64) -> f64 {
         let g = self.body_gas_amount[b].to_f64();
@@ -254,7 +254,7 @@ impl<R: Real> Model<R> {
             .sum()
     }
 
-    /// Centre of mass [m], `f64`.
+    /// Centre of mass \[m\], `f64`.
     pub fn center_of_mass(&self, state: &State<R>) -> DVec3 {
         let m = self.total_mass();
         (0..self.particle_count())

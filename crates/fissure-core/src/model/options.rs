@@ -5,21 +5,21 @@ use super::*;
 /// How a body's mass is given.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Mass {
-    /// Total mass [kg], lumped onto vertices by area (each vertex takes a third of its triangles' area).
+    /// Total mass \[kg\], lumped onto vertices by area (each vertex takes a third of its triangles' area).
     Total(f64),
     /// Surface density [kg/m^2], lumped by area.
     AreaDensity(f64),
-    /// The same mass [kg] on every vertex.
+    /// The same mass \[kg\] on every vertex.
     PerParticle(f64),
 }
 
 /// How spring stiffness is given.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Stiffness {
-    /// Every spring gets this constant [N/m]. Depends on the mesh resolution: a finer mesh of the same
+    /// Every spring gets this constant \[N/m\]. Depends on the mesh resolution: a finer mesh of the same
     /// springs is softer (more springs in series).
     PerSpring(f64),
-    /// The membrane's stretching stiffness `E·h` [N/m] (2D Young's modulus, independent of resolution).
+    /// The membrane's stretching stiffness `E·h` \[N/m\] (2D Young's modulus, independent of resolution).
     /// Each edge spring gets `k = E·h Σ A_t / L²` over its one or two triangles (Van Gelder 1998): a regular
     /// triangle lattice of such springs has the 2D Young's modulus `E·h` (Poisson ratio 1/3) at any
     /// resolution. Bending springs get the same formula with their own length.
@@ -29,7 +29,7 @@ pub enum Stiffness {
 /// How spring damping is given.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Damping {
-    /// Every spring gets this coefficient [N·s/m].
+    /// Every spring gets this coefficient \[N·s/m\].
     PerSpring(f64),
     /// A fraction ζ of each spring's critical damping `2 √(k m_red)`, `m_red` the reduced mass of its ends.
     Ratio(f64),
@@ -50,9 +50,9 @@ pub enum DampingModel {
 pub enum Gas {
     /// No gas: a hollow membrane.
     None,
-    /// The constant `nRT` [J] of `P V = nRT`.
+    /// The constant `nRT` \[J\] of `P V = nRT`.
     Amount(f64),
-    /// The pressure [Pa] at the rest shape; `nRT = P0 · V0`.
+    /// The pressure \[Pa\] at the rest shape; `nRT = P0 · V0`.
     Pressure(f64),
 }
 
@@ -75,7 +75,7 @@ pub enum SpringKind {
 pub struct Breakable {
     /// Strain `(l - L0) / L0` past which a spring breaks (spring mode). Default infinity (off).
     pub strain_limit: f64,
-    /// Load [N] past which a vertex breaks out as a core block (core mode): the magnitude of the net elastic
+    /// Load \[N\] past which a vertex breaks out as a core block (core mode): the magnitude of the net elastic
     /// force (springs and gas) on it. Default infinity (off).
     pub load_limit: f64,
     /// Keep the gas in when the body is punctured (its volume is still taken with caps over the openings).
@@ -133,13 +133,13 @@ pub struct SoftBodyOptions {
     pub bending: Option<Stiffness>,
     /// Gas. Default `Pressure(2000.0)` Pa.
     pub gas: Gas,
-    /// Pressure outside [Pa], subtracted from the gas pressure. Default 0 (the seed's model).
+    /// Pressure outside \[Pa\], subtracted from the gas pressure. Default 0 (the seed's model).
     pub external_pressure: f64,
     /// Aerodynamic coefficients (only used if the model has wind). Default none.
     pub aero: Aero,
     /// Flip an inward-facing closed mesh instead of failing. Default true.
     pub reorient: bool,
-    /// Initial velocity [m/s]. Default 0.
+    /// Initial velocity \[m/s\]. Default 0.
     pub velocity: DVec3,
     /// How the body breaks. Default `None`: it never does.
     pub fracture: Option<Breakable>,

@@ -6,15 +6,15 @@ use crate::forces::{pressure, spring};
 /// Positions and velocities: the only data a step changes.
 #[derive(Clone, Debug, PartialEq)]
 pub struct State<R: Real = f32> {
-    /// Positions [m].
+    /// Positions \[m\].
     pub particle_q: Vec<R::V>,
-    /// Velocities [m/s].
+    /// Velocities \[m/s\].
     pub particle_qd: Vec<R::V>,
-    /// Simulation time [s].
+    /// Simulation time \[s\].
     pub time: f64,
 }
 
-/// Energies of a state [J], each summed in `f64`.
+/// Energies of a state \[J\], each summed in `f64`.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct Energy {
     /// `Σ ½ m v²` of free particles.

@@ -97,9 +97,9 @@ impl SolverConfig {
 /// step → fracture → notify; the methods past `step` exist so that a solver keeping the state elsewhere (the GPU)
 /// can run many steps without copying it back.
 pub trait Solver<R: Real>: Send + Sync {
-    /// Advances `state` by `dt` [s] (the state in and out is `state`).
+    /// Advances `state` by `dt` \[s\] (the state in and out is `state`).
     fn step(&mut self, model: &Model<R>, state: &mut State<R>, dt: f64) -> Result<(), StepError>;
-    /// `steps` steps of `dt` [s] as one batch from the solver's current state. Afterwards the solver's own copy
+    /// `steps` steps of `dt` \[s\] as one batch from the solver's current state. Afterwards the solver's own copy
     /// is current and `state` may lag until [`Solver::sync_state`] (the CPU solver steps `state` itself; the GPU
     /// keeps it on the device). Default: `steps` calls of [`Solver::step`].
     fn advance(&mut self, model: &Model<R>, state: &mut State<R>, dt: f64, steps: usize) -> Result<(), StepError> {
@@ -108,7 +108,7 @@ pub trait Solver<R: Real>: Send + Sync {
         }
         Ok(())
     }
-    /// Simulation time of the solver's copy of the state [s] (the CPU: `state.time`).
+    /// Simulation time of the solver's copy of the state \[s\] (the CPU: `state.time`).
     fn time(&self, state: &State<R>) -> f64 {
         state.time
     }
@@ -487,7 +487,7 @@ impl<R: Real> CpuSolver<R> {
         self.rk = rk;
     }
 
-    /// The net force on every particle at `state` [N] (gravity, springs, pressure, wind; not collisions) into
+    /// The net force on every particle at `state` \[N\] (gravity, springs, pressure, wind; not collisions) into
     /// `out`, which must have one entry per particle. Pinned particles get their force too.
     pub fn compute_forces(&mut self, m: &Model<R>, state: &State<R>, out: &mut [R::V]) -> Result<(), StepError> {
         if state.particle_q.len() != m.particle_count() || out.len() != m.particle_count() {
@@ -507,7 +507,7 @@ impl<R: Real> CpuSolver<R> {
         Ok(())
     }
 
-    /// Volumes of the gas bodies [m^3] as of the last force evaluation (0 for bodies without gas).
+    /// Volumes of the gas bodies \[m^3\] as of the last force evaluation (0 for bodies without gas).
     pub fn body_volumes(&self) -> &[R] {
         &self.f.body_volume
     }

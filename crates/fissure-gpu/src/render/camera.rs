@@ -5,15 +5,15 @@ use super::*;
 /// An orbit camera: it looks at `target` from `distance` away, at `yaw` about +y and `pitch` above the horizon.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Camera {
-    /// The point looked at [m].
+    /// The point looked at \[m\].
     pub target: Vec3,
-    /// Angle about +y [rad]; 0 looks along -z.
+    /// Angle about +y \[rad\]; 0 looks along -z.
     pub yaw: f32,
-    /// Angle above the horizontal [rad], kept within ±1.5.
+    /// Angle above the horizontal \[rad\], kept within ±1.5.
     pub pitch: f32,
-    /// Distance from the target [m].
+    /// Distance from the target \[m\].
     pub distance: f32,
-    /// Vertical field of view [rad].
+    /// Vertical field of view \[rad\].
     pub fov_y: f32,
 }
 
@@ -54,7 +54,7 @@ impl Camera {
         Camera { target: center, yaw: 0.45, pitch: 0.42, distance: 0.9 * radius / (0.5 * fov_y).sin(), fov_y }
     }
 
-    /// The camera's position [m].
+    /// The camera's position \[m\].
     pub fn eye(&self) -> Vec3 {
         let (sy, cy) = self.yaw.sin_cos();
         let (sp, cp) = self.pitch.sin_cos();
@@ -69,7 +69,7 @@ impl Camera {
         perspective(self.fov_y, aspect.max(1e-3), near, far) * look_at_mat4(self.eye(), self.target, Vec3::Y)
     }
 
-    /// Turns the camera by `dyaw` and `dpitch` [rad].
+    /// Turns the camera by `dyaw` and `dpitch` \[rad\].
     pub fn orbit(&mut self, dyaw: f32, dpitch: f32) {
         self.yaw += dyaw;
         self.pitch = (self.pitch + dpitch).clamp(-1.5, 1.5);

@@ -6,9 +6,9 @@ use super::*;
 /// An RGBA8 (sRGB) image, rows top to bottom.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Image {
-    /// Width [px].
+    /// Width \[px\].
     pub width: u32,
-    /// Height [px].
+    /// Height \[px\].
     pub height: u32,
     /// `width * height * 4` bytes.
     pub rgba: Vec<u8>,

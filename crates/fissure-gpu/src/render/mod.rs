@@ -77,7 +77,7 @@ pub struct View {
     pub points: bool,
     /// Ground, walls and obstacles.
     pub scene: bool,
-    /// Side of a mass point's square [px].
+    /// Side of a mass point's square \[px\].
     pub point_size: f32,
 }
 
@@ -123,7 +123,7 @@ pub struct Renderer {
     overlay: Option<Overlay>,
 }
 
-/// The text panel: its texture, where it goes (a uniform rectangle), their bind group, and its size [px].
+/// The text panel: its texture, where it goes (a uniform rectangle), their bind group, and its size \[px\].
 struct Overlay {
     texture: wgpu::Texture,
     rect: wgpu::Buffer,

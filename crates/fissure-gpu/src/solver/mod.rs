@@ -400,7 +400,7 @@ impl GpuSolver {
         &self.q[self.cur]
     }
 
-    /// Simulation time of the GPU state [s].
+    /// Simulation time of the GPU state \[s\].
     pub fn time(&self) -> f64 {
         self.time
     }
@@ -416,7 +416,7 @@ impl GpuSolver {
         self.last_repacked
     }
 
-    /// Bytes written to model buffers by the last [`GpuSolver::notify_model_changed`] (or creation), and to the
+    /// Bytes written to model buffers by the last `notify_model_changed` (or creation), and to the
     /// state by the upload of new particles after it.
     pub fn last_upload_bytes(&self) -> usize {
         self.last_upload
@@ -536,7 +536,7 @@ impl GpuSolver {
         Ok(())
     }
 
-    /// Runs `steps` substeps of `dt` [s] in one submission. Reads back only the 16-byte status word, and only
+    /// Runs `steps` substeps of `dt` \[s\] in one submission. Reads back only the 16-byte status word, and only
     /// when `check_finite` is on or the model can break.
     pub fn run(&mut self, m: &Model<f32>, dt: f64, steps: usize) -> Result<RunReport, GpuError> {
         if !(dt.is_finite() && dt > 0.0) {
@@ -598,7 +598,7 @@ impl GpuSolver {
         Ok(Candidates { springs: list(0), vertices: list(1), overflow: w[0] as usize > cap || w[1] as usize > cap })
     }
 
-    /// The net force on every particle at `state` [N] (gravity, springs, pressure, wind; not collisions): the
+    /// The net force on every particle at `state` \[N\] (gravity, springs, pressure, wind; not collisions): the
     /// kernels' twin of `CpuSolver::compute_forces`. Replaces the GPU state with `state`.
     pub fn compute_forces(&mut self, m: &Model<f32>, state: &State<f32>) -> Result<Vec<Vec3>, GpuError> {
         self.check_model(m)?;
@@ -619,7 +619,7 @@ impl GpuSolver {
         Ok(f.iter().map(|v| Vec3::new(v[0], v[1], v[2])).collect())
     }
 
-    /// Volume [m^3] and net pressure [Pa] of each body as of the last surface pass (zeros for bodies without gas).
+    /// Volume \[m^3\] and net pressure \[Pa\] of each body as of the last surface pass (zeros for bodies without gas).
     pub fn body_volumes_pressures(&self, m: &Model<f32>) -> Result<Vec<(f32, f32)>, GpuError> {
         let nb = m.body_count();
         let v = self.read_vec4(&self.scratch.body_state, nb)?;
