@@ -555,6 +555,21 @@ impl Scene {
                     return Err(self.bad(key(f), format!("applies to a cloth only, not a {:?}", body.shape)));
                 }
             }
+            let given = [
+                ("radius", body.radius.is_some()),
+                ("subdivisions", body.subdivisions.is_some()),
+                ("half_extents", body.half_extents.is_some()),
+                ("cells", body.cells.is_some()),
+                ("file", body.file.is_some()),
+            ];
+            let keys: &[&str] = match body.shape {
+                BodyShape::Icosphere => &["radius", "subdivisions"],
+                BodyShape::Cuboid => &["half_extents", "cells"],
+                BodyShape::Obj | BodyShape::Cloth => &["file"],
+            };
+            if let Some((f, _)) = given.iter().find(|(f, g)| *g && !keys.contains(f)) {
+                return Err(self.bad(key(f), format!("does not apply to a {:?} body; remove the key", body.shape)));
+            }
             let mesh = match body.shape {
                 BodyShape::Icosphere => {
                     let r = body.radius.ok_or_else(|| self.bad(key("radius"), "is required for an icosphere"))?;
@@ -671,7 +686,14 @@ impl Scene {
         if body.pressure.is_some_and(|p| p != 0.0) {
             return Err(self.bad(key("pressure"), "an open cloth holds no gas; remove the key"));
         }
-        for (f, set) in [("radius", body.radius.is_some()), ("file", body.file.is_some()), ("sealed", body.sealed)] {
+        for (f, set) in [
+            ("radius", body.radius.is_some()),
+            ("subdivisions", body.subdivisions.is_some()),
+            ("half_extents", body.half_extents.is_some()),
+            ("cells", body.cells.is_some()),
+            ("file", body.file.is_some()),
+            ("sealed", body.sealed),
+        ] {
             if set {
                 return Err(self.bad(key(f), "does not apply to a cloth"));
             }

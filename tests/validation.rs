@@ -84,6 +84,16 @@ fn non_positive_dt_and_bad_solver_settings_name_the_key() {
 }
 
 #[test]
+fn keys_that_do_not_apply_to_a_body_shape_are_errors() {
+    let e = error("[[body]]\nshape = \"icosphere\"\nradius = 0.2\nhalf_extents = [1, 1, 1]\n");
+    assert!(e.contains("`body[0].half_extents`") && e.contains("does not apply"), "{e}");
+    let e = error("[[body]]\nshape = \"cuboid\"\nhalf_extents = [0.1, 0.1, 0.1]\nradius = 0.2\n");
+    assert!(e.contains("`body[0].radius`") && e.contains("does not apply"), "{e}");
+    let e = error("[[body]]\nshape = \"cloth\"\nresolution = [4, 4]\nsubdivisions = 2\n");
+    assert!(e.contains("`body[0].subdivisions`"), "{e}");
+}
+
+#[test]
 fn closed_sets_are_enums_and_unknown_names_are_listed() {
     let e = error(&format!("[solver]\nintegrator = \"euler\"\n{BALL}"));
     assert!(e.contains("euler") && e.contains("symplectic_euler"), "{e}");

@@ -26,8 +26,8 @@ pub use fracture::{Fracture, FractureConfig, FractureEvent, FractureKind, Topolo
 pub use glam;
 pub use mesh::Mesh;
 pub use model::{
-    BodyHandle, BodyKind, Breakable, ClothOptions, Damping, DampingModel, Energy, Gas, Mass, Model, ModelBuilder,
-    Opening, SoftBodyOptions, SpringKind, SpringRun, State, Stiffness,
+    BodyHandle, BodyKind, BodyRow, Breakable, ClothOptions, Damping, DampingModel, Energy, Gas, Mass, Model,
+    ModelBuilder, Opening, ParticleRow, SoftBodyOptions, SpringKind, SpringRow, SpringRun, State, Stiffness, TriRow,
 };
 pub use parry3d;
 pub use real::{Real, Vector3};

@@ -104,12 +104,7 @@ pub(crate) fn add_particle<R: Real>(
     like: usize,
 ) -> u32 {
     let load = m.particle_load_limit[like];
-    m.particle_q0.push(x);
-    m.particle_qd0.push(v);
-    m.particle_mass.push(mass);
-    m.particle_inv_mass.push(inv_mass);
-    m.particle_body.push(body);
-    m.particle_load_limit.push(load);
+    m.push_particle(ParticleRow { q0: x, qd0: v, mass, inv_mass, body, load_limit: load });
     m.particle_springs.push_row();
     m.particle_tris.push_row();
     s.particle_q.push(x);
@@ -161,12 +156,14 @@ pub(crate) fn add_spring<R: Real>(
     let red_new = reduced(m.particle_mass[i as usize], m.particle_mass[j as usize]);
     let ratio = (red_new / red).min(R::ONE);
     let (ks, kd) = (ks * ratio, kd * ratio);
-    m.spring_indices.push([i, j]);
-    m.spring_rest_length.push(rest);
-    m.spring_stiffness.push(ks);
-    m.spring_damping.push(kd);
-    m.spring_kind.push(SpringKind::Edge);
-    m.spring_strain_limit.push(limit);
+    m.push_spring(SpringRow {
+        indices: [i, j],
+        rest_length: rest,
+        stiffness: ks,
+        damping: kd,
+        kind: SpringKind::Edge,
+        strain_limit: limit,
+    });
     m.particle_springs.push(i as usize, sp << 1);
     m.particle_springs.push(j as usize, (sp << 1) | 1);
     // Spring runs are kept only while the model uses them (empty otherwise).
@@ -236,8 +233,7 @@ pub(crate) fn set_tri<R: Real>(m: &mut Model<R>, t: u32, new: [u32; 3]) {
 
 pub(crate) fn add_tri<R: Real>(m: &mut Model<R>, tri: [u32; 3], body: u32) -> u32 {
     let t = m.tri_count() as u32;
-    m.tri_indices.push(tri);
-    m.tri_body.push(body);
+    m.push_tri(TriRow { indices: tri, body });
     for v in tri {
         m.particle_tris.push(v as usize, t);
     }
@@ -247,13 +243,15 @@ pub(crate) fn add_tri<R: Real>(m: &mut Model<R>, tri: [u32; 3], body: u32) -> u3
 /// A new open body (no gas) with `parent`'s other parameters.
 pub(crate) fn new_body<R: Real>(m: &mut Model<R>, parent: u32, anchor: u32) -> u32 {
     let p = parent as usize;
-    m.body_kind.push(BodyKind::Cloth);
-    m.body_gas_amount.push(R::ZERO);
-    m.body_pressure_external.push(m.body_pressure_external[p]);
-    m.body_rest_volume.push(R::ZERO);
-    m.body_drag.push(m.body_drag[p]);
-    m.body_lift.push(m.body_lift[p]);
-    m.body_anchor.push(anchor);
-    m.body_sealed.push(m.body_sealed[p]);
+    m.push_body(BodyRow {
+        kind: BodyKind::Cloth,
+        gas_amount: R::ZERO,
+        pressure_external: m.body_pressure_external[p],
+        rest_volume: R::ZERO,
+        drag: m.body_drag[p],
+        lift: m.body_lift[p],
+        anchor,
+        sealed: m.body_sealed[p],
+    });
     (m.body_count() - 1) as u32
 }

@@ -28,73 +28,137 @@ pub use options::{
 };
 pub use state::{Energy, State};
 
-/// Everything a step reads but does not write. See the crate docs for units.
-#[derive(Clone, Debug)]
-pub struct Model<R: Real = f32> {
-    /// Initial positions \[m\].
-    pub particle_q0: Vec<R::V>,
-    /// Initial velocities \[m/s\].
-    pub particle_qd0: Vec<R::V>,
-    /// Mass \[kg\] (pinned particles keep theirs for accounting).
-    pub particle_mass: Vec<R>,
-    /// Inverse mass [1/kg]; 0 pins a particle.
-    pub particle_inv_mass: Vec<R>,
-    /// Owning body, or `u32::MAX` for free particles.
-    pub particle_body: Vec<u32>,
-    /// Spring ends `[i, j]`.
-    pub spring_indices: Vec<[u32; 2]>,
-    /// Rest length `L0` \[m\].
-    pub spring_rest_length: Vec<R>,
-    /// Stiffness `ks` \[N/m\].
-    pub spring_stiffness: Vec<R>,
-    /// Damping `kd` \[N·s/m\].
-    pub spring_damping: Vec<R>,
-    /// What each spring represents.
-    pub spring_kind: Vec<SpringKind>,
-    /// Strain `(l - L0) / L0` past which each spring breaks (infinity: never).
-    pub spring_strain_limit: Vec<R>,
-    /// Load \[N\] past which each particle breaks out as a core block (infinity: never); see the `fracture` module.
-    pub particle_load_limit: Vec<R>,
-    /// Triangles, counter-clockwise from outside.
-    pub tri_indices: Vec<[u32; 3]>,
-    /// Owning body of each triangle.
-    pub tri_body: Vec<u32>,
-    /// Kind of each body.
-    pub body_kind: Vec<BodyKind>,
-    /// `nRT` \[J\] of each body's gas (0: none).
-    pub body_gas_amount: Vec<R>,
-    /// Outside pressure \[Pa\].
-    pub body_pressure_external: Vec<R>,
-    /// Volume at rest \[m^3\] (0 for open bodies). Volumes are clamped at [`crate::forces::pressure::MIN_VOLUME_FRACTION`] of it so an inverted body's
-    /// pressure stays finite.
-    pub body_rest_volume: Vec<R>,
-    /// Drag coefficient.
-    pub body_drag: Vec<R>,
-    /// Lift coefficient.
-    pub body_lift: Vec<R>,
-    /// A particle of each body about which its volume is summed (round-off control only).
-    pub body_anchor: Vec<u32>,
-    /// Whether each body keeps its gas when punctured.
-    pub body_sealed: Vec<bool>,
-    /// Openings of the gas bodies (none until something breaks).
-    pub openings: Vec<Opening>,
-    /// Derived: some spring or particle can break (only then does the fracture pass do any work).
-    pub breakable: bool,
-    /// Springs of each particle: entry `s << 1 | end`, `end` 0 for `spring_indices[s]\[0\]`.
-    pub particle_springs: Csr,
-    /// Triangles of each particle.
-    pub particle_tris: Csr,
-    /// Maximal runs of consecutive springs whose ends advance together (see [`SpringRun`]); derived. Empty when
-    /// the runs would be too short to pay (irregular meshes): the gather kernel is used then.
-    pub spring_runs: Vec<SpringRun>,
-    /// Gravity \[m/s^2\].
-    pub gravity: R::V,
-    /// Damping form.
-    pub damping_model: DampingModel,
-    /// Wind, if any.
-    pub wind: Option<WindField>,
-    /// Colliders.
-    pub colliders: Vec<Collider>,
+/// Declares [`Model`] once: each group of per-item arrays (per particle, per spring, per triangle, per body) is
+/// listed here alone, and the macro derives from that list the struct's fields, a row type holding one item of
+/// the group (`ParticleRow`, ...), `push_*` (append one row to every array of the group) and `reserve_*`. Adding an
+/// attribute is one edit here; the compiler then points at every place that must give it a value (the builder's
+/// `finalize` and the row constructors of the fracture edits).
+macro_rules! model_arrays {
+    (
+        $(#[$meta:meta])*
+        pub struct Model<R: Real = f32> {
+            $(
+                group $row:ident $(<$g:ident>)? ($gdoc:literal), $push:ident, $reserve:ident {
+                    $( $(#[$fdoc:meta])* $field:ident / $rf:ident : $ty:ty, )*
+                }
+            )*
+            others {
+                $( $(#[$odoc:meta])* $other:ident : $oty:ty, )*
+            }
+        }
+    ) => {
+        $(#[$meta])*
+        pub struct Model<R: Real = f32> {
+            $( $( $(#[$fdoc])* pub $field: Vec<$ty>, )* )*
+            $( $(#[$odoc])* pub $other: $oty, )*
+        }
+
+        $(
+            #[doc = $gdoc]
+            #[derive(Clone, Debug, PartialEq)]
+            pub struct $row $(<$g: Real = f32>)? {
+                $( $(#[$fdoc])* pub $rf: $ty, )*
+            }
+        )*
+
+        impl<R: Real> Model<R> {
+            $(
+                /// Appends one item to every array of its group; returns its index.
+                pub fn $push(&mut self, row: $row $(<$g>)?) -> usize {
+                    $( self.$field.push(row.$rf); )*
+                    model_arrays!(@first self, $($field),*).len() - 1
+                }
+
+                /// Reserves room for `n` more items in every array of the group.
+                pub fn $reserve(&mut self, n: usize) {
+                    $( self.$field.reserve(n); )*
+                }
+            )*
+        }
+    };
+    (@first $s:ident, $f:ident $(, $rest:ident)*) => { $s.$f };
+}
+
+model_arrays! {
+    /// Everything a step reads but does not write. See the crate docs for units.
+    #[derive(Clone, Debug)]
+    pub struct Model<R: Real = f32> {
+        group ParticleRow<R> ("One particle (a mass point) of a [`Model`]."), push_particle, reserve_particles {
+            /// Initial positions \[m\].
+            particle_q0 / q0: R::V,
+            /// Initial velocities \[m/s\].
+            particle_qd0 / qd0: R::V,
+            /// Mass \[kg\] (pinned particles keep theirs for accounting).
+            particle_mass / mass: R,
+            /// Inverse mass [1/kg]; 0 pins a particle.
+            particle_inv_mass / inv_mass: R,
+            /// Owning body, or `u32::MAX` for free particles.
+            particle_body / body: u32,
+            /// Load \[N\] past which each particle breaks out as a core block (infinity: never); see the `fracture`
+            /// module.
+            particle_load_limit / load_limit: R,
+        }
+        group SpringRow<R> ("One spring of a [`Model`]."), push_spring, reserve_springs {
+            /// Spring ends `[i, j]`.
+            spring_indices / indices: [u32; 2],
+            /// Rest length `L0` \[m\].
+            spring_rest_length / rest_length: R,
+            /// Stiffness `ks` \[N/m\].
+            spring_stiffness / stiffness: R,
+            /// Damping `kd` \[N·s/m\].
+            spring_damping / damping: R,
+            /// What each spring represents.
+            spring_kind / kind: SpringKind,
+            /// Strain `(l - L0) / L0` past which each spring breaks (infinity: never).
+            spring_strain_limit / strain_limit: R,
+        }
+        group TriRow ("One triangle of a [`Model`]."), push_tri, reserve_tris {
+            /// Triangles, counter-clockwise from outside.
+            tri_indices / indices: [u32; 3],
+            /// Owning body of each triangle.
+            tri_body / body: u32,
+        }
+        group BodyRow<R> ("One body of a [`Model`]."), push_body, reserve_bodies {
+            /// Kind of each body.
+            body_kind / kind: BodyKind,
+            /// `nRT` \[J\] of each body's gas (0: none).
+            body_gas_amount / gas_amount: R,
+            /// Outside pressure \[Pa\].
+            body_pressure_external / pressure_external: R,
+            /// Volume at rest \[m^3\] (0 for open bodies). Volumes are clamped at
+            /// [`crate::forces::pressure::MIN_VOLUME_FRACTION`] of it so an inverted body's pressure stays finite.
+            body_rest_volume / rest_volume: R,
+            /// Drag coefficient.
+            body_drag / drag: R,
+            /// Lift coefficient.
+            body_lift / lift: R,
+            /// A particle of each body about which its volume is summed (round-off control only).
+            body_anchor / anchor: u32,
+            /// Whether each body keeps its gas when punctured.
+            body_sealed / sealed: bool,
+        }
+        others {
+        /// Openings of the gas bodies (none until something breaks).
+        openings: Vec<Opening>,
+        /// Derived: some spring or particle can break (only then does the fracture pass do any work).
+        breakable: bool,
+        /// Springs of each particle: entry `s << 1 | end`, `end` 0 for `spring_indices[s]\[0\]`.
+        particle_springs: Csr,
+        /// Triangles of each particle.
+        particle_tris: Csr,
+        /// Maximal runs of consecutive springs whose ends advance together (see [`SpringRun`]); derived. Empty when
+        /// the runs would be too short to pay (irregular meshes): the gather kernel is used then.
+        spring_runs: Vec<SpringRun>,
+        /// Gravity \[m/s^2\].
+        gravity: R::V,
+        /// Damping form.
+        damping_model: DampingModel,
+        /// Wind, if any.
+        wind: Option<WindField>,
+        /// Colliders.
+        colliders: Vec<Collider>,
+        }
+    }
 }
 
 /// Springs `first + k` for `k < len` with ends `(i + k, j + k)`. Cloth grids consist of a few hundred such runs;
@@ -285,12 +349,7 @@ impl<R: Real> Model<R> {
     /// Reserves room for `particles`, `springs` and `triangles` more (fracture appends them), so that growing
     /// does not reallocate mid-simulation.
     pub fn reserve(&mut self, particles: usize, springs: usize, triangles: usize) {
-        self.particle_q0.reserve(particles);
-        self.particle_qd0.reserve(particles);
-        self.particle_mass.reserve(particles);
-        self.particle_inv_mass.reserve(particles);
-        self.particle_body.reserve(particles);
-        self.particle_load_limit.reserve(particles);
+        self.reserve_particles(particles);
         for c in [&mut self.particle_springs, &mut self.particle_tris] {
             c.start.reserve(particles);
             c.len.reserve(particles);
@@ -298,14 +357,8 @@ impl<R: Real> Model<R> {
         }
         self.particle_springs.items.reserve(8 * springs);
         self.particle_tris.items.reserve(12 * triangles);
-        self.spring_indices.reserve(springs);
-        self.spring_rest_length.reserve(springs);
-        self.spring_stiffness.reserve(springs);
-        self.spring_damping.reserve(springs);
-        self.spring_kind.reserve(springs);
-        self.spring_strain_limit.reserve(springs);
-        self.tri_indices.reserve(triangles);
-        self.tri_body.reserve(triangles);
+        self.reserve_springs(springs);
+        self.reserve_tris(triangles);
     }
 
     /// True when the springs form long runs (average ≥ 16), so the run kernel is used.
