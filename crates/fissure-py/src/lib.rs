@@ -44,15 +44,8 @@ fn load_scene<'py>(py: Python<'py>, path: std::path::PathBuf) -> PyResult<Bound<
         SceneError::Io { .. } => pyo3::exceptions::PyOSError::new_err(e.to_string()),
         e => value_err(e),
     })?;
-    let model = scene.builder().map_err(value_err)?.finalize::<f32>().map_err(value_err)?;
-    let integrator = match scene.integrator().map_err(value_err)? {
-        RIntegrator::SymplecticEuler => Integrator::SYMPLECTIC_EULER,
-        RIntegrator::VelocityVerlet => Integrator::VELOCITY_VERLET,
-        RIntegrator::Rk4 => Integrator::RK4,
-        RIntegrator::ImplicitEuler => Integrator::IMPLICIT_EULER,
-    };
-    let solver = Solver::new(integrator, 1e-5, 200, scene.solver.substep_safety)?;
-    let rust = fissure::World::new(model, solver.inner.config.clone()).with_fracture(scene.fracture_config());
+    // The scene's own world (its solver and fracture settings): the front end only translates.
+    let rust = scene.world::<f32>().map_err(value_err)?;
     let world = World::from_world(py, rust)?;
     let d = PyDict::new(py);
     d.set_item("world", Py::new(py, world)?)?;
