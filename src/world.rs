@@ -51,6 +51,8 @@ pub struct World<R: Real = f32> {
     /// Steps between two fracture passes (default 1: after every step). A larger value trades when fractures are
     /// noticed for fewer state read-backs on a GPU; the pass then sees the time of all those steps at once.
     pub fracture_every: usize,
+    /// Steps taken and time covered since the last fracture pass (the cadence, shared by `step` and `advance`).
+    since_fracture: (usize, f64),
 }
 
 impl<R: Real> World<R> {
@@ -62,7 +64,15 @@ impl<R: Real> World<R> {
     /// A world at the model's initial state on `solver` (a GPU solver, say, built for this model).
     pub fn with_solver(model: Model<R>, solver: Box<dyn Solver<R>>) -> Self {
         let state = model.state();
-        World { model, state, solver, fracture: Fracture::default(), events: Vec::new(), fracture_every: 1 }
+        World {
+            model,
+            state,
+            solver,
+            fracture: Fracture::default(),
+            events: Vec::new(),
+            fracture_every: 1,
+            since_fracture: (0, 0.0),
+        }
     }
 
     /// Replaces the fracture settings.
@@ -76,8 +86,8 @@ impl<R: Real> World<R> {
         self.solver.as_any_mut().downcast_mut::<CpuSolver<R>>()
     }
 
-    /// One step of `dt` \[s\], then the fracture pass when its cadence falls due. Returns the events it produced
-    /// (they are appended to [`World::events`]).
+    /// One step of `dt` \[s\], then the fracture pass when [`World::fracture_every`] steps have passed since the
+    /// last one. Returns what happened (the events are also appended to [`World::events`]).
     pub fn step(&mut self, dt: f64) -> Result<Advance, StepError> {
         check_dt(dt)?;
         let mut out = Advance::default();
@@ -102,7 +112,11 @@ impl<R: Real> World<R> {
             let h = dt.min(end - t);
             // Full steps of `dt` up to the next fracture pass (or to the end when nothing can break), counted
             // with the same additions the solver makes to its clock.
-            let cap = if self.fracture_due() { self.fracture_every.max(1) } else { usize::MAX };
+            let cap = if self.fracture_due() {
+                self.fracture_every.max(1).saturating_sub(self.since_fracture.0).max(1)
+            } else {
+                usize::MAX
+            };
             let (mut n, mut tt) = (1, t + h);
             if h == dt {
                 while n < cap && tt < end - 1e-12 && dt <= end - tt {
@@ -132,7 +146,6 @@ impl<R: Real> World<R> {
         let (m, s) = (&mut self.model, &mut self.state);
         let delta = if core { self.fracture.break_core(m, s, index) } else { self.fracture.break_spring(m, s, index) };
         self.after_fracture(&delta)?;
-        self.events.extend_from_slice(&delta.events);
         Ok(delta.events)
     }
 
@@ -154,27 +167,36 @@ impl<R: Real> World<R> {
         self.fracture.needed(&self.model)
     }
 
-    /// `n` steps of `h`, then the fracture pass if it is due (the seed's steps 4 and 5).
+    /// `n` steps of `h`, then the fracture pass once `fracture_every` steps have passed since the last one (the
+    /// seed's steps 4 and 5), with the time they covered.
     fn batch(&mut self, h: f64, n: usize, out: &mut Advance) -> Result<(), StepError> {
         self.solver.advance(&self.model, &mut self.state, h, n)?;
         out.steps += n;
         if !self.fracture_due() {
+            self.since_fracture = (0, 0.0);
             return Ok(());
         }
+        self.since_fracture = (self.since_fracture.0 + n, self.since_fracture.1 + h * n as f64);
+        let (steps, covered) = self.since_fracture;
+        if steps < self.fracture_every.max(1) {
+            return Ok(());
+        }
+        self.since_fracture = (0, 0.0);
         // A GPU knows whether a limit was passed; a body with openings leaks whatever happened.
         if !self.solver.may_have_fracture_candidates() && self.model.openings.is_empty() {
             return Ok(());
         }
         self.solver.sync_state(&mut self.state)?;
-        let delta = self.fracture.apply(&mut self.model, &mut self.state, h * n as f64);
+        let delta = self.fracture.apply(&mut self.model, &mut self.state, covered);
         self.after_fracture(&delta)?;
         out.absorb(&delta);
-        self.events.extend_from_slice(&delta.events);
         Ok(())
     }
 
-    /// Tells the solver what a fracture changed: the model's rows, and the state when particles were split.
+    /// Keeps the events and tells the solver what a fracture changed: the model's rows, and the state when
+    /// particles were split off.
     fn after_fracture(&mut self, delta: &TopologyDelta) -> Result<(), StepError> {
+        self.events.extend_from_slice(&delta.events);
         if delta.is_nothing() {
             return Ok(());
         }

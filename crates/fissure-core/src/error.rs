@@ -128,6 +128,21 @@ pub enum ModelError {
     Empty,
 }
 
+impl ModelError {
+    /// For a bad parameter: its name as a front end calls it (`rename` maps the core's names that differ there:
+    /// a scene key, a Python keyword) and what is wrong, `must be …, got …`. `None` for other errors. The scene
+    /// loader and the Python bindings build their messages from this, so they check nothing themselves.
+    pub fn parameter(&self, rename: &[(&str, &'static str)]) -> Option<(&'static str, String)> {
+        match *self {
+            ModelError::Parameter { name, value, expected } => {
+                let name = rename.iter().find(|(n, _)| *n == name).map_or(name, |(_, k)| *k);
+                Some((name, format!("must be {expected}, got {value}")))
+            }
+            _ => None,
+        }
+    }
+}
+
 /// A step that could not be completed.
 #[derive(Debug, Error, Clone, PartialEq)]
 pub enum StepError {

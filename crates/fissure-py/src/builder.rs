@@ -59,7 +59,7 @@ pub(crate) fn handle_dict<'py>(py: Python<'py>, h: fissure::BodyHandle) -> PyRes
 pub(crate) fn add_collider(
     b: &mut RBuilder,
     c: Collider,
-    position_arg: &str,
+    position_arg: &'static str,
     (restitution, friction, margin): (f32, f32, f32),
 ) -> PyResult<()> {
     let c = c.with_restitution(restitution).with_friction(friction).with_margin(margin);

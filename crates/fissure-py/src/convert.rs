@@ -4,13 +4,10 @@ use crate::*;
 
 /// A core error as `ValueError`; a bad parameter is named by its Python keyword (`rename` maps the core's name
 /// where the keyword differs): "`radius` must be finite and > 0 \[m\], got -1".
-pub(crate) fn core_err(e: fissure::ModelError, rename: &[(&str, &str)]) -> PyErr {
-    match e {
-        fissure::ModelError::Parameter { name, value, expected } => {
-            let arg = rename.iter().find(|(n, _)| *n == name).map_or(name, |(_, a)| a);
-            PyValueError::new_err(format!("`{arg}` must be {expected}, got {value}"))
-        }
-        e => value_err(e),
+pub(crate) fn core_err(e: fissure::ModelError, rename: &[(&str, &'static str)]) -> PyErr {
+    match e.parameter(rename) {
+        Some((arg, message)) => PyValueError::new_err(format!("`{arg}` {message}")),
+        None => value_err(e),
     }
 }
 

@@ -14,7 +14,7 @@ pub struct World {
     pub(crate) state: Py<State>,
     pub(crate) solver: Py<Solver>,
     /// The Rust world: holds the fracture pass and the events; its model, state and solver are the Python
-    /// objects' only while a call runs (between calls it holds the placeholders they were swapped with).
+    /// objects' only while a call runs (between calls it holds empty placeholders, swapped in and out in O(1)).
     pub(crate) world: fissure::World<f32>,
 }
 
@@ -39,8 +39,9 @@ pub(crate) fn event_dict<'py>(py: Python<'py>, e: &fissure::FractureEvent) -> Py
 impl World {
     /// A Python world around a Rust one: its model, state and solver become the live Python objects.
     pub(crate) fn from_world(py: Python<'_>, mut world: fissure::World<f32>) -> PyResult<Self> {
-        let model = Model { inner: world.model.clone() };
-        let state = State { inner: world.state.clone() };
+        // Moved out, not copied: between calls the Rust world holds empty placeholders.
+        let model = Model { inner: std::mem::take(&mut world.model) };
+        let state = State { inner: std::mem::take(&mut world.state) };
         let cpu = world.cpu_solver().ok_or_else(|| PyValueError::new_err("the Python World steps on the CPU"))?;
         let solver = Solver { inner: std::mem::take(cpu) };
         Ok(World { model: Py::new(py, model)?, state: Py::new(py, state)?, solver: Py::new(py, solver)?, world })
@@ -117,10 +118,8 @@ impl World {
         };
         config.validate().map_err(|e| core_err(e, &[]))?;
         let solver = Solver::new(integrator, cg_tolerance, cg_max_iterations, substep_safety)?;
-        let rust = {
-            let m = &model.borrow(py).inner;
-            fissure::World::new(m.clone(), solver.inner.config.clone()).with_fracture(config)
-        };
+        // An empty placeholder model: the Python objects' contents are swapped in for each call.
+        let rust = fissure::World::new(fissure::Model::default(), solver.inner.config.clone()).with_fracture(config);
         let state = model.borrow(py).state();
         Ok(World { model, state: Py::new(py, state)?, solver: Py::new(py, solver)?, world: rust })
     }

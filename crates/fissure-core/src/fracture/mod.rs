@@ -249,11 +249,6 @@ impl TopologyDelta {
     pub fn is_nothing(&self) -> bool {
         self.is_empty() && !self.gas
     }
-
-    /// The model's counts after the call, from `m`: `[particles, springs, triangles, bodies]`.
-    pub fn new_counts<R: Real>(m: &Model<R>) -> [usize; 4] {
-        [m.particle_count(), m.spring_count(), m.tri_count(), m.body_count()]
-    }
 }
 
 /// The fracture pass: its settings, the averaged triggers' history, scratch, and its timer.

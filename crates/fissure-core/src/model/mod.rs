@@ -81,7 +81,7 @@ macro_rules! model_arrays {
 
 model_arrays! {
     /// Everything a step reads but does not write. See the crate docs for units.
-    #[derive(Clone, Debug)]
+    #[derive(Clone, Debug, Default)]
     pub struct Model<R: Real = f32> {
         group ParticleRow<R> ("One particle (a mass point) of a [`Model`]."), push_particle, reserve_particles {
             /// Initial positions \[m\].

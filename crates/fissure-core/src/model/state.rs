@@ -4,7 +4,7 @@ use super::*;
 use crate::forces::{pressure, spring};
 
 /// Positions and velocities: the only data a step changes.
-#[derive(Clone, Debug, PartialEq)]
+#[derive(Clone, Debug, Default, PartialEq)]
 pub struct State<R: Real = f32> {
     /// Positions \[m\].
     pub particle_q: Vec<R::V>,

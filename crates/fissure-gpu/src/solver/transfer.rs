@@ -111,17 +111,7 @@ impl GpuSolver {
         add(self.caps.sync(d, q, &p.caps));
         let old_count = self.particle_count();
         self.packed = p;
-        realloc |= self.grow_state(old_count, m.particle_count());
-        if (0..4).any(|k| scratch_sizes(m, &self.packed)[k] > self.scratch.sized[k]) {
-            self.scratch = scratch(&self.device, m, &self.packed);
-            realloc = true;
-        }
-        self.write_params(m);
-        bytes += size_of::<Params>();
-        if realloc {
-            self.rebind();
-        }
-        self.last_upload = bytes;
+        self.finish_sync(m, old_count, realloc, bytes);
     }
 
     /// Re-packs and uploads what `delta` names (a fracture's change): the new and changed particles, their
@@ -214,7 +204,13 @@ impl GpuSolver {
             add(self.openings.sync(d, q, &p.openings));
             add(self.caps.sync(d, q, &p.caps));
         }
-        realloc |= self.grow_state(n0, n);
+        self.finish_sync(m, n0, realloc, bytes);
+    }
+
+    /// The end of every model sync: the state buffers for a grown particle count (from `old`), scratch buffers
+    /// for the new sizes, the uniform, new bind groups if any buffer was reallocated, and the upload count.
+    fn finish_sync(&mut self, m: &Model<f32>, old: usize, mut realloc: bool, mut bytes: usize) {
+        realloc |= self.grow_state(old, m.particle_count());
         if (0..4).any(|k| scratch_sizes(m, &self.packed)[k] > self.scratch.sized[k]) {
             self.scratch = scratch(&self.device, m, &self.packed);
             realloc = true;
