@@ -187,7 +187,8 @@ impl<R: Real> World<R> {
             return Ok(());
         }
         self.solver.sync_state(&mut self.state)?;
-        let delta = self.fracture.apply(&mut self.model, &mut self.state, covered);
+        let measures = self.solver.fracture_measures(&self.model);
+        let delta = self.fracture.apply_measured(&mut self.model, &mut self.state, covered, measures);
         self.after_fracture(&delta)?;
         out.absorb(&delta);
         Ok(())

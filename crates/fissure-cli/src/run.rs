@@ -269,11 +269,14 @@ pub fn run(cfg: &RunConfig) -> Result<RunSummary, Box<dyn std::error::Error>> {
         if span > 1e-12 && world.advance(span, dt)?.topology_changed {
             out_frames.model_changed(&world.model, world.state.time);
         }
-        let text = overlay(&scene, &world, backend_name);
-        match world.gpu_solver() {
-            Some(gpu) => out_frames.capture_buffer(gpu.position_buffer(), &text)?,
-            None => out_frames.capture(&world.model, &world.state, &text)?,
-        };
+        // Nothing to write (--no-png --no-gif): no drawing either, the run is the simulation alone.
+        if cfg.png || cfg.gif {
+            let text = overlay(&scene, &world, backend_name);
+            match world.gpu_solver() {
+                Some(gpu) => out_frames.capture_buffer(gpu.position_buffer(), &text)?,
+                None => out_frames.capture(&world.model, &world.state, &text)?,
+            };
+        }
         if let Some(f) = cfg.mesh {
             export_mesh(&out, frame, f, &world.model, &world.state)?;
             meshes += 1;

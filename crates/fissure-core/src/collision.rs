@@ -363,6 +363,30 @@ impl PreparedCollider {
         }
     }
 
+    /// False when no point of the box `lo..=hi` (world) can pass this collider's fast reject in
+    /// [`PreparedCollider::resolve`]: the solver then skips the collider for a whole block of particles. Every
+    /// test here is looser than the per-point one (the box's nearest point, tolerances widened for rounding), so
+    /// skipping never drops a contact.
+    #[inline]
+    pub fn may_touch_box(&self, c: &Collider, lo: Vec3, hi: Vec3) -> bool {
+        match self.quick {
+            Quick::Plane(n, d, t) => {
+                let far = lo.abs().max(hi.abs()).max_element();
+                let nearest = (n * lo).min(n * hi).element_sum();
+                let tol = 1e-5 * (far + t + 1.0) + 1e-6 * (far + d.abs() + 1.0);
+                nearest - d <= c.margin + tol
+            }
+            Quick::Sphere(centre, reach) => {
+                let gap = centre.clamp(lo, hi) - centre;
+                gap.length_squared() <= reach * reach * (1.0 + 1e-3) + 1e-10
+            }
+            Quick::None => {
+                let pad = 1e-5 * (1.0 + lo.abs().max(hi.abs()).max_element());
+                self.aabb.mins.cmple(hi + pad).all() && self.aabb.maxs.cmpge(lo - pad).all()
+            }
+        }
+    }
+
     /// See [`Collider::resolve`]; `c` is the collider this was prepared from.
     #[inline]
     pub fn resolve(&self, c: &Collider, x: Vec3, v: Vec3) -> Option<(Vec3, Vec3)> {

@@ -22,7 +22,9 @@ pub use forces::wind;
 
 pub use collision::Collider;
 pub use error::{MeshError, ModelError, StepError};
-pub use fracture::{Fracture, FractureConfig, FractureEvent, FractureKind, TopologyDelta, Trigger, check_invariants};
+pub use fracture::{
+    Fracture, FractureConfig, FractureEvent, FractureKind, Measures, TopologyDelta, Trigger, check_invariants,
+};
 pub use glam;
 pub use mesh::Mesh;
 pub use model::{

@@ -377,3 +377,85 @@ fn no_fracture_work_without_breakable_springs() {
     }
     assert_eq!(f.timers().calls(Stage::Fracture), 10);
 }
+
+/// The trigger's inputs as the CPU solver measures them during a step (`CpuSolver::measures`, which the fracture
+/// pass reads instead of recomputing) agree with the same quantities computed independently in `f64` from the
+/// state the step started from: each spring's strain, each particle's load `|Σ elastic pulls + pressure shares|`
+/// and each gas body's capped volume (a punctured ball, so the caps over the opening count).
+#[test]
+fn solver_measures_match_an_independent_f64_computation() {
+    use fissure_core::forces::{pressure, spring};
+    let mut b = ModelBuilder::new();
+    let opts = SoftBodyOptions {
+        gas: Gas::Pressure(2000.0),
+        fracture: Some(Breakable { strain_limit: 0.4, load_limit: 50.0, sealed: false }),
+        velocity: DVec3::new(0.3, -1.0, 0.0),
+        ..Default::default()
+    };
+    b.add_soft_body(&Mesh::icosphere(0.25, 3), &opts).unwrap();
+    let mut m: Model<f32> = b.finalize().unwrap();
+    let mut s = m.state();
+    let mut f = Fracture::<f32>::default();
+    assert!(!f.break_core(&mut m, &mut s, 7).events.is_empty(), "the puncture breaks");
+    assert!(!m.openings.is_empty(), "the puncture opens the ball");
+    let mut solver = CpuSolver::<f32>::default();
+    for _ in 0..20 {
+        solver.step(&m, &mut s, 1e-5).unwrap();
+    }
+    let s0 = s.clone();
+    solver.step(&m, &mut s, 1e-5).unwrap();
+    let x = solver.measures(&m).expect("a breakable model on the per-spring kernel is measured");
+    let q = |i: u32| s0.particle_q[i as usize].to_dvec3();
+
+    let mut worst_strain = 0.0f64;
+    for (sp, &[i, j]) in m.spring_indices.iter().enumerate() {
+        let want = spring::strain((q(j) - q(i)).length(), m.spring_rest_length[sp] as f64);
+        worst_strain = worst_strain.max((x.strain[sp] as f64 - want).abs());
+    }
+    assert!(worst_strain < 1e-5, "strain differs by {worst_strain:e}");
+
+    let volumes = m.body_volumes(&s0);
+    let p: Vec<f64> = (0..m.body_count())
+        .map(|b| {
+            let (gas, v0, ext) = (m.body_gas_amount[b], m.body_rest_volume[b], m.body_pressure_external[b]);
+            pressure::gas_pressure(gas as f64, volumes[b], v0 as f64, ext as f64)
+        })
+        .collect();
+    for (b, (&got, &want)) in x.volume.iter().zip(&volumes).enumerate() {
+        if m.body_gas_amount[b] > 0.0 {
+            let rel = (got as f64 - want).abs() / want;
+            assert!(rel < 1e-5, "body {b}: volume {got} against {want} (relative {rel:e})");
+        }
+    }
+    let mut checked = 0;
+    for i in 0..m.particle_count() {
+        if !m.particle_load_limit[i].is_finite() {
+            assert_eq!(x.load[i], 0.0, "particle {i} cannot break: no load measured");
+            continue;
+        }
+        let mut f = DVec3::ZERO;
+        let mut scale = 0.0;
+        for &e in m.particle_springs.row(i) {
+            let sp = (e >> 1) as usize;
+            let [a, c] = m.spring_indices[sp];
+            let el = spring::elastic_force::<f64>(
+                q(c) - q(a),
+                m.spring_rest_length[sp] as f64,
+                m.spring_stiffness[sp] as f64,
+            );
+            f += if e & 1 == 0 { el } else { -el };
+            scale += el.length();
+        }
+        for &t in m.particle_tris.row(i) {
+            let [a, c, d] = m.tri_indices[t as usize];
+            let corner =
+                pressure::corner_force::<f64>((q(c) - q(a)).cross(q(d) - q(a)), p[m.tri_body[t as usize] as usize]);
+            f += corner;
+            scale += corner.length();
+        }
+        let err = (x.load[i] as f64 - f.length()).abs();
+        assert!(err <= 1e-5 * scale + 1e-9, "particle {i}: load {} against {} (terms {scale})", x.load[i], f.length());
+        checked += 1;
+    }
+    assert!(checked > 600);
+}

@@ -20,6 +20,17 @@ impl<R: Real> ForceScratch<R> {
             (false, DampingModel::Unprojected) => spring_pass::<R, false>(m, q, qd, &mut self.spring_f),
         }
     }
+
+    /// [`ForceScratch::springs`] that also measures the fracture trigger's inputs: each spring's strain into
+    /// `strain` and its elastic pull into `spring_el` (per-spring kernel only; see `ForceScratch::resize`).
+    pub fn springs_measured(&mut self, m: &Model<R>, q: &[R::V], qd: &[R::V]) {
+        debug_assert!(self.measuring && !self.runs);
+        let (out, strain, el) = (&mut self.spring_f, &mut self.strain, &mut self.spring_el);
+        match m.damping_model {
+            DampingModel::Projected => spring_pass_measured::<R, true>(m, q, qd, out, strain, el),
+            DampingModel::Unprojected => spring_pass_measured::<R, false>(m, q, qd, out, strain, el),
+        }
+    }
 }
 
 /// The seed's eqs. (1)–(2) for one spring, on its end 0 (end 1 gets the negative), per component:
@@ -32,16 +43,24 @@ impl<R: Real> ForceScratch<R> {
 /// `shaders/integrate.wgsl`, and `spring_elastic_force` in `load_check` of `shaders/fracture.wgsl`).
 #[inline(always)]
 pub fn force_components<R: Real, const PROJECTED: bool>(d: [R; 3], w: [R; 3], rest: R, ks: R, kd: R) -> [R; 3] {
+    force_parts::<R, PROJECTED>(d, w, rest, ks, kd).0
+}
+
+/// [`force_components`] with its by-products: `(force, elastic part ks (l - L0) d̂, length l)`. The force pass
+/// uses the last two as the fracture trigger's strain and load when the model can break.
+#[inline(always)]
+pub fn force_parts<R: Real, const PROJECTED: bool>(d: [R; 3], w: [R; 3], rest: R, ks: R, kd: R) -> ([R; 3], [R; 3], R) {
     let l2 = d[0] * d[0] + d[1] * d[1] + d[2] * d[2];
     let l = l2.sqrt();
     let inv = if l2 > R::ZERO { R::ONE / l } else { R::ZERO };
     let u = [d[0] * inv, d[1] * inv, d[2] * inv];
+    let el = ks * (l - rest);
+    let elastic = [u[0] * el, u[1] * el, u[2] * el];
     if PROJECTED {
-        let mag = ks * (l - rest) + kd * (w[0] * u[0] + w[1] * u[1] + w[2] * u[2]);
-        [u[0] * mag, u[1] * mag, u[2] * mag]
+        let mag = el + kd * (w[0] * u[0] + w[1] * u[1] + w[2] * u[2]);
+        ([u[0] * mag, u[1] * mag, u[2] * mag], elastic, l)
     } else {
-        let mag = ks * (l - rest);
-        [u[0] * mag + w[0] * kd, u[1] * mag + w[1] * kd, u[2] * mag + w[2] * kd]
+        ([elastic[0] + w[0] * kd, elastic[1] + w[1] * kd, elastic[2] + w[2] * kd], elastic, l)
     }
 }
 
@@ -91,19 +110,125 @@ pub(crate) fn implicit_coefficients<R: Real>(d: R::V, rest: R, ks: R, kd: R, h: 
     }
 }
 
+/// The per-spring kernel (irregular meshes): forces into `out`, and with `MEASURE` each spring's strain and
+/// elastic pull too. Springs go a span of [`SPAN`] at a time: their ends' differences are gathered into
+/// per-component arrays, [`force_parts`] runs on those as plain loops (packed square roots and divisions), and
+/// the results are scattered back. Same maths lane by lane, same bits as one spring at a time.
 fn spring_pass<R: Real, const PROJECTED: bool>(m: &Model<R>, q: &[R::V], qd: &[R::V], out: &mut [R::V]) {
-    let n = out.len();
-    let (idx, rest, ks, kd) =
-        (&m.spring_indices[..n], &m.spring_rest_length[..n], &m.spring_stiffness[..n], &m.spring_damping[..n]);
     par::chunks(out, |start, chunk| {
-        let end = start + chunk.len();
-        let (idx, rest, ks, kd) = (&idx[start..end], &rest[start..end], &ks[start..end], &kd[start..end]);
-        for (k, f) in chunk.iter_mut().enumerate() {
+        spring_chunk_dispatch::<R, PROJECTED, false>(m, q, qd, start, chunk, &mut [], &mut [])
+    });
+}
+
+fn spring_pass_measured<R: Real, const PROJECTED: bool>(
+    m: &Model<R>,
+    q: &[R::V],
+    qd: &[R::V],
+    out: &mut [R::V],
+    strain_out: &mut [R],
+    el_out: &mut [R::V],
+) {
+    let n = out.len();
+    par::chunks3(out, &mut strain_out[..n], &mut el_out[..n], |start, chunk, strains, els| {
+        spring_chunk_dispatch::<R, PROJECTED, true>(m, q, qd, start, chunk, strains, els)
+    });
+}
+
+/// [`spring_chunk`] compiled for AVX2 when the CPU has it, else for the baseline (same bits: see
+/// [`run_block_dispatch`]).
+#[inline]
+fn spring_chunk_dispatch<R: Real, const PROJECTED: bool, const MEASURE: bool>(
+    m: &Model<R>,
+    q: &[R::V],
+    qd: &[R::V],
+    start: usize,
+    out: &mut [R::V],
+    strains: &mut [R],
+    els: &mut [R::V],
+) {
+    #[cfg(target_arch = "x86_64")]
+    {
+        if std::arch::is_x86_feature_detected!("avx2") {
+            // SAFETY: the CPU supports AVX2, checked just above.
+            unsafe { spring_chunk_avx2::<R, PROJECTED, MEASURE>(m, q, qd, start, out, strains, els) };
+            return;
+        }
+    }
+    spring_chunk::<R, PROJECTED, MEASURE>(m, q, qd, start, out, strains, els)
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+fn spring_chunk_avx2<R: Real, const PROJECTED: bool, const MEASURE: bool>(
+    m: &Model<R>,
+    q: &[R::V],
+    qd: &[R::V],
+    start: usize,
+    out: &mut [R::V],
+    strains: &mut [R],
+    els: &mut [R::V],
+) {
+    spring_chunk::<R, PROJECTED, MEASURE>(m, q, qd, start, out, strains, els)
+}
+
+/// Springs `start .. start + out.len()`, a span at a time (see [`spring_pass`]).
+#[inline(always)]
+fn spring_chunk<R: Real, const PROJECTED: bool, const MEASURE: bool>(
+    m: &Model<R>,
+    q: &[R::V],
+    qd: &[R::V],
+    start: usize,
+    out: &mut [R::V],
+    strains: &mut [R],
+    els: &mut [R::V],
+) {
+    let mut t = SpanScratch::<R>::new();
+    let mut e = [[R::ZERO; SPAN]; 3];
+    let mut l = [R::ZERO; SPAN];
+    let mut k0 = 0;
+    while k0 < out.len() {
+        let n = (out.len() - k0).min(SPAN);
+        let s0 = start + k0;
+        let (idx, rest, ks, kd) = (
+            &m.spring_indices[s0..s0 + n],
+            &m.spring_rest_length[s0..s0 + n],
+            &m.spring_stiffness[s0..s0 + n],
+            &m.spring_damping[s0..s0 + n],
+        );
+        for k in 0..n {
             let [i, j] = idx[k];
             let (i, j) = (i as usize, j as usize);
-            *f = force::<R, PROJECTED>(q[j] - q[i], qd[j] - qd[i], rest[k], ks[k], kd[k]);
+            let [a, b, c] = (q[j] - q[i]).to_array();
+            let [x, y, z] = (qd[j] - qd[i]).to_array();
+            (t.d[0][k], t.d[1][k], t.d[2][k]) = (a, b, c);
+            (t.w[0][k], t.w[1][k], t.w[2][k]) = (x, y, z);
+            (t.p[0][k], t.p[1][k], t.p[2][k]) = (rest[k], ks[k], kd[k]);
         }
-    });
+        {
+            let ([dx, dy, dz], [wx, wy, wz], [r, s, d]) = (&t.d, &t.w, &t.p);
+            let [fx, fy, fz] = &mut t.f;
+            let [ex, ey, ez] = &mut e;
+            for k in 0..SPAN {
+                let (f, el, len) =
+                    force_parts::<R, PROJECTED>([dx[k], dy[k], dz[k]], [wx[k], wy[k], wz[k]], r[k], s[k], d[k]);
+                [fx[k], fy[k], fz[k]] = f;
+                if MEASURE {
+                    [ex[k], ey[k], ez[k]] = el;
+                    l[k] = strain(len, r[k]);
+                }
+            }
+        }
+        for k in 0..n {
+            out[k0 + k] = R::V::new(t.f[0][k], t.f[1][k], t.f[2][k]);
+        }
+        if MEASURE {
+            for k in 0..n {
+                els[k0 + k] = R::V::new(e[0][k], e[1][k], e[2][k]);
+                strains[k0 + k] = l[k];
+            }
+        }
+        k0 += n;
+    }
 }
 
 /// Springs computed per span of a run at a time.

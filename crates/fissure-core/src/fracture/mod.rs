@@ -251,6 +251,22 @@ impl TopologyDelta {
     }
 }
 
+/// The fracture trigger's inputs as a solver measured them during its last step (`Solver::fracture_measures`),
+/// at the state that step started from: the pass then compares them with the limits instead of recomputing
+/// every spring's force and every body's volume (the scan was half of the fracture scene's step). One step
+/// of lag (`dt`, tens of microseconds) is far below any time scale the trigger resolves; the splits themselves
+/// use the current state.
+#[derive(Clone, Copy, Debug)]
+pub struct Measures<'a, R: Real> {
+    /// Strain `(l - L0) / L0` of each spring.
+    pub strain: &'a [R],
+    /// Load of each particle with a finite load limit \[N\]: `|Σ elastic spring pulls + pressure shares|`, the
+    /// sum [`Fracture::apply`] takes itself.
+    pub load: &'a [R],
+    /// Volume of each gas body, capped over its openings \[m^3\] (0 for bodies without gas).
+    pub volume: &'a [R],
+}
+
 /// The fracture pass: its settings, the averaged triggers' history, scratch, and its timer.
 #[derive(Clone, Debug, Default)]
 pub struct Fracture<R: Real = f32> {
@@ -263,6 +279,8 @@ pub struct Fracture<R: Real = f32> {
     /// Body volumes of the current call (empty: not yet computed, or stale after a split).
     volumes: Vec<f64>,
     spring_force: Vec<DVec3>,
+    /// Each spring's strain (the scan without a solver's measures).
+    strain: Vec<R>,
     /// Per-particle stamp: `step_gen` if touched this step.
     touched: Vec<u32>,
     step_gen: u32,
@@ -322,6 +340,18 @@ impl<R: Real> Fracture<R> {
     /// must be told (`Solver::notify_model_changed`). `World` does both; call this directly only to drive a
     /// solver of your own.
     pub fn apply(&mut self, m: &mut Model<R>, s: &mut State<R>, dt: f64) -> TopologyDelta {
+        self.apply_measured(m, s, dt, None)
+    }
+
+    /// [`Fracture::apply`] with the trigger's inputs as the solver measured them during the step (`World` passes
+    /// `Solver::fracture_measures`); `None`, or measures of another model size, computes them from `s`.
+    pub fn apply_measured(
+        &mut self,
+        m: &mut Model<R>,
+        s: &mut State<R>,
+        dt: f64,
+        measures: Option<Measures<'_, R>>,
+    ) -> TopologyDelta {
         let mut events = Vec::new();
         self.begin(m);
         self.volumes.clear();
@@ -329,8 +359,17 @@ impl<R: Real> Fracture<R> {
             return std::mem::take(&mut self.delta);
         }
         let t0 = Instant::now();
+        let measures = measures.filter(|x| {
+            x.strain.len() == m.spring_count() && x.load.len() == m.particle_count() && x.volume.len() == m.body_count()
+        });
+        if let Some(x) = &measures {
+            self.volumes.extend(x.volume.iter().map(|v| v.to_f64()));
+        }
         if m.has_fracture() && s.time >= self.config.start_time {
-            self.scan(m, s, dt);
+            match &measures {
+                Some(x) => self.scan_measured(m, x, dt),
+                None => self.scan(m, s, dt),
+            }
             let budget = self.config.max_events_per_step;
             let cands = std::mem::take(&mut self.candidates);
             let mut done = 0;

@@ -3,26 +3,33 @@
 
 use super::*;
 use crate::forces::{pressure, spring};
+use crate::par;
 
 impl<R: Real> Fracture<R> {
     /// Candidates, sorted worst first: `(value / limit, 0 spring | 1 vertex, index)`.
     pub(super) fn scan(&mut self, m: &Model<R>, s: &State<R>, dt: f64) {
         self.candidates.clear();
-        let alpha = match self.config.trigger {
-            Trigger::Instant => 1.0,
-            Trigger::Averaged { window } => 1.0 - (-dt / window.max(1e-12)).exp(),
-        };
+        let alpha = alpha(self.config.trigger, dt);
         let q = &s.particle_q;
         let ns = m.spring_count();
         self.spring_avg.resize(ns, R::ZERO);
-        for sp in 0..ns {
+        // Every spring's strain in one data-parallel sweep (fixed chunks: the same bits on any thread count),
+        // then, for the instantaneous trigger, the branch-free check whether any passes its limit at all.
+        self.strain.resize(ns, R::ZERO);
+        par::chunks(&mut self.strain, |start, out| {
+            for (k, e) in out.iter_mut().enumerate() {
+                let sp = start + k;
+                let [i, j] = m.spring_indices[sp];
+                *e = spring::strain((q[j as usize] - q[i as usize]).length(), m.spring_rest_length[sp]);
+            }
+        });
+        let springs = alpha < 1.0 || any_over(&self.strain, &m.spring_strain_limit);
+        for sp in (0..ns).filter(|_| springs) {
             let lim = m.spring_strain_limit[sp];
             if !lim.is_finite() || m.spring_kind[sp] == SpringKind::Broken {
                 continue;
             }
-            let [i, j] = m.spring_indices[sp];
-            let strain = spring::strain((q[j as usize] - q[i as usize]).length(), m.spring_rest_length[sp]);
-            let v = triggered(&mut self.spring_avg[sp], strain, alpha);
+            let v = triggered(&mut self.spring_avg[sp], self.strain[sp], alpha);
             if v > lim {
                 self.candidates.push(((v / lim).to_f64(), 0, sp as u32));
             }
@@ -77,6 +84,43 @@ impl<R: Real> Fracture<R> {
         self.candidates.sort_by(|a, b| b.0.total_cmp(&a.0).then(a.1.cmp(&b.1)).then(a.2.cmp(&b.2)));
     }
 
+    /// The scan on a solver's [`Measures`]: the same limits, averages and order as [`Fracture::scan`], with
+    /// nothing recomputed.
+    pub(super) fn scan_measured(&mut self, m: &Model<R>, x: &Measures<'_, R>, dt: f64) {
+        self.candidates.clear();
+        let alpha = alpha(self.config.trigger, dt);
+        let ns = m.spring_count();
+        self.spring_avg.resize(ns, R::ZERO);
+        // Instantaneous trigger: one branch-free sweep (it vectorises) finds whether any value passes its limit
+        // at all, the usual answer being no; the per-item loop below runs only when one does.
+        let instant = alpha >= 1.0;
+        let springs = !instant || any_over(x.strain, &m.spring_strain_limit);
+        let particles = !instant || any_over(x.load, &m.particle_load_limit);
+        for sp in (0..ns).filter(|_| springs) {
+            let lim = m.spring_strain_limit[sp];
+            if !lim.is_finite() || m.spring_kind[sp] == SpringKind::Broken {
+                continue;
+            }
+            let v = triggered(&mut self.spring_avg[sp], x.strain[sp], alpha);
+            if v > lim {
+                self.candidates.push(((v / lim).to_f64(), 0, sp as u32));
+            }
+        }
+        let n = m.particle_count();
+        self.particle_avg.resize(n, R::ZERO);
+        for i in (0..n).filter(|_| particles) {
+            let lim = m.particle_load_limit[i];
+            if !lim.is_finite() || m.particle_inv_mass[i] == R::ZERO {
+                continue;
+            }
+            let v = triggered(&mut self.particle_avg[i], x.load[i], alpha);
+            if v > lim {
+                self.candidates.push(((v / lim).to_f64(), 1, i as u32));
+            }
+        }
+        self.candidates.sort_by(|a, b| b.0.total_cmp(&a.0).then(a.1.cmp(&b.1)).then(a.2.cmp(&b.2)));
+    }
+
     /// Net gas pressure of each body \[Pa\] (capped volumes, volumes computed at most once per call of
     /// [`Fracture::apply`]).
     pub(super) fn pressures(&mut self, m: &Model<R>, s: &State<R>) -> Vec<f64> {
@@ -89,6 +133,19 @@ impl<R: Real> Fracture<R> {
                 pressure::gas_pressure(gas.to_f64(), self.volumes[b], v0.to_f64(), ext.to_f64())
             })
             .collect()
+    }
+}
+
+/// Whether `values[k] > limits[k]` for any `k` (an infinite limit is never passed).
+fn any_over<R: Real>(values: &[R], limits: &[R]) -> bool {
+    values.chunks(256).zip(limits.chunks(256)).any(|(v, l)| v.iter().zip(l).fold(false, |acc, (v, l)| acc | (*v > *l)))
+}
+
+/// The moving average's weight of a new sample after `dt` \[s\] (1: instantaneous).
+fn alpha(trigger: Trigger, dt: f64) -> f64 {
+    match trigger {
+        Trigger::Instant => 1.0,
+        Trigger::Averaged { window } => 1.0 - (-dt / window.max(1e-12)).exp(),
     }
 }
 

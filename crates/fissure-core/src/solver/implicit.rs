@@ -267,16 +267,7 @@ impl<R: Real> CpuSolver<R> {
 /// `Σ` spring buffer entries of particle `i` with the force sign convention (+ on end 0, - on end 1).
 #[inline(always)]
 fn spring_gather<R: Real>(m: &Model<R>, buf: &[R::V], i: usize) -> R::V {
-    let mut f = R::V::ZERO;
-    for &e in m.particle_springs.row(i) {
-        let v = buf[(e >> 1) as usize];
-        if e & 1 == 0 {
-            f += v;
-        } else {
-            f -= v;
-        }
-    }
-    f
+    crate::forces::spring_gather::<R>(R::V::ZERO, m.particle_springs.row(i), buf)
 }
 
 /// `out_s = B_s (p_j - p_i)` with `B_s = c[o] I + (c[o+1] - c[o]) u uᵀ` (o = 0: stiffness only, 2: system).

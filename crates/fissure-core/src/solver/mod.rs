@@ -33,6 +33,11 @@ use std::time::Instant;
 
 mod implicit;
 
+/// Particles per block of the collision pass's broad test (one bounding box per block).
+const COLLIDE_BLOCK: usize = 32;
+/// Colliders a block keeps in its near list on the stack; with more colliders in the scene every block tests all.
+const COLLIDE_NEAR: usize = 64;
+
 pub use crate::integrator::Integrator;
 use implicit::ImplicitScratch;
 
@@ -131,6 +136,11 @@ pub trait Solver<R: Real>: Send + Sync {
     fn upload_new_particles(&mut self, _state: &State<R>, _from: usize) -> Result<(), StepError> {
         Ok(())
     }
+    /// The fracture trigger's inputs, if the solver measured them during its last step (the CPU solver on a
+    /// model that can break); `None` makes the fracture pass compute them from the state. Default `None`.
+    fn fracture_measures(&self, _model: &Model<R>) -> Option<crate::fracture::Measures<'_, R>> {
+        None
+    }
     /// Tells the solver what changed in the model: after a fracture, the pass's [`TopologyDelta`]; after editing
     /// parameters by hand, [`TopologyDelta::whole`].
     fn notify_model_changed(&mut self, model: &Model<R>, delta: &TopologyDelta);
@@ -179,6 +189,8 @@ pub struct CpuSolver<R: Real = f32> {
     bound: Option<StabilityBound>,
     /// Substeps the last `step` took.
     last_substeps: usize,
+    /// The next force evaluation is the first of a substep: it measures the fracture trigger's inputs.
+    measure_next: bool,
 }
 
 #[derive(Clone, Debug, Default)]
@@ -233,10 +245,21 @@ impl<R: Real> CpuSolver<R> {
     }
 
     /// Springs and surface passes at `(q, qd)`, timed. Returns whether triangle forces exist.
+    ///
+    /// The first evaluation of a substep (`measure_next`) of a model that can break also measures the fracture
+    /// trigger's inputs (strains, elastic pulls, loads; see [`crate::fracture::Measures`]), so that the fracture
+    /// pass reads them instead of recomputing every spring and triangle.
+    /// (The load pass is its own sweep: fused into symplectic Euler's gather it cost more than apart, measured
+    /// on the fracture scene.)
     fn forces(&mut self, m: &Model<R>, q: &[R::V], qd: &[R::V], time: f64) -> bool {
+        let measure = std::mem::take(&mut self.measure_next) && self.f.measuring;
         if m.spring_count() > 0 {
             let t = Instant::now();
-            self.f.springs(m, q, qd);
+            if measure {
+                self.f.springs_measured(m, q, qd);
+            } else {
+                self.f.springs(m, q, qd);
+            }
             self.timers.add(Stage::Springs, t);
         }
         let surface = m.has_pressure() || m.has_wind();
@@ -245,7 +268,27 @@ impl<R: Real> CpuSolver<R> {
             self.f.surface(m, q, qd, time);
             self.timers.add(Stage::Surface, t);
         }
+        if measure {
+            let t = Instant::now();
+            if m.spring_count() == 0 {
+                self.f.strain.iter_mut().for_each(|s| *s = R::ZERO);
+            }
+            self.f.loads(m, surface);
+            self.f.measured = true;
+            self.timers.add(Stage::Fracture, t);
+        }
         surface
+    }
+
+    /// The fracture trigger's inputs measured at the start of the last substep, if this model's last step
+    /// measured them (a model that can break, stepped by the per-spring kernel) and nothing changed since.
+    pub fn measures(&self, m: &Model<R>) -> Option<crate::fracture::Measures<'_, R>> {
+        let f = &self.f;
+        (f.measured
+            && f.strain.len() == m.spring_count()
+            && f.load.len() == m.particle_count()
+            && f.body_volume.len() == m.body_count())
+        .then_some(crate::fracture::Measures { strain: &f.strain, load: &f.load, volume: &f.body_volume })
     }
 
     /// Resolves contacts; flags `blown` if a contact produced a non-finite state (a particle flung to ±1e300 by
@@ -259,35 +302,77 @@ impl<R: Real> CpuSolver<R> {
         self.colliders.extend(m.colliders.iter().map(|c| c.prepare(state.time)));
         let prepared = &self.colliders;
         let inv_mass = &m.particle_inv_mass;
-        par::chunks2(&mut state.particle_q, &mut state.particle_qd, |start, qs, vs| {
-            for k in 0..qs.len() {
-                if inv_mass[start + k] == R::ZERO {
-                    continue;
+        // The full resolve of one particle: every collider in order, and since a push out of one collider can
+        // land in another (a corner), sweep until clear, at most 3 times.
+        let resolve_all = |x0: glam::Vec3, v0: glam::Vec3| -> Option<(glam::Vec3, glam::Vec3)> {
+            let (mut x, mut v) = (x0, v0);
+            let mut touched = false;
+            for _sweep in 0..3 {
+                let mut any = false;
+                for (p, c) in prepared.iter().zip(&m.colliders) {
+                    if let Some((x2, v2)) = p.resolve(c, x, v) {
+                        x = x2;
+                        v = v2;
+                        any = true;
+                    }
                 }
-                let (mut x, mut v) = (qs[k].to_vec3(), vs[k].to_vec3());
-                let mut touched = false;
-                // A push out of one collider can land in another (a corner): sweep until clear, at most 3 times.
-                for _sweep in 0..3 {
-                    let mut any = false;
-                    for (p, c) in prepared.iter().zip(&m.colliders) {
-                        if let Some((x2, v2)) = p.resolve(c, x, v) {
-                            x = x2;
-                            v = v2;
-                            any = true;
+                touched |= any;
+                if !any || m.colliders.len() == 1 {
+                    break;
+                }
+            }
+            touched.then_some((x, v))
+        };
+        par::chunks2(&mut state.particle_q, &mut state.particle_qd, |start, qs, vs| {
+            // Per block of particles, the colliders its bounding box can reach; a particle that none of them
+            // touches is clear of all (the others reject its block), and one that is touched takes the full
+            // resolve from its original state: the same result as testing every collider, bit for bit.
+            let mut near = [0u32; COLLIDE_NEAR];
+            let mut bad = false;
+            for (b, (qb, vb)) in qs.chunks_mut(COLLIDE_BLOCK).zip(vs.chunks_mut(COLLIDE_BLOCK)).enumerate() {
+                let p0 = start + b * COLLIDE_BLOCK;
+                let (mut lo, mut hi) = (glam::Vec3::splat(f32::INFINITY), glam::Vec3::splat(f32::NEG_INFINITY));
+                for x in qb.iter() {
+                    let x = x.to_vec3();
+                    lo = lo.min(x);
+                    hi = hi.max(x);
+                }
+                let mut count = 0;
+                let all = !(lo.is_finite() && hi.is_finite()) || prepared.len() > COLLIDE_NEAR;
+                if !all {
+                    for (k, (p, c)) in prepared.iter().zip(&m.colliders).enumerate() {
+                        if p.may_touch_box(c, lo, hi) {
+                            near[count] = k as u32;
+                            count += 1;
                         }
                     }
-                    touched |= any;
-                    if !any || m.colliders.len() == 1 {
-                        break;
+                    if count == 0 {
+                        continue;
                     }
                 }
-                if touched {
-                    qs[k] = R::V::from_vec3(x);
-                    vs[k] = R::V::from_vec3(v);
-                    if !(qs[k].is_finite() && vs[k].is_finite()) {
-                        blown.store(true, Ordering::Relaxed);
+                for k in 0..qb.len() {
+                    if inv_mass[p0 + k] == R::ZERO {
+                        continue;
+                    }
+                    let (x, v) = (qb[k].to_vec3(), vb[k].to_vec3());
+                    if !all {
+                        let hit = near[..count].iter().any(|&c| {
+                            let c = c as usize;
+                            prepared[c].resolve(&m.colliders[c], x, v).is_some()
+                        });
+                        if !hit {
+                            continue;
+                        }
+                    }
+                    if let Some((x, v)) = resolve_all(x, v) {
+                        qb[k] = R::V::from_vec3(x);
+                        vb[k] = R::V::from_vec3(v);
+                        bad |= !(qb[k].is_finite() && vb[k].is_finite());
                     }
                 }
+            }
+            if bad {
+                blown.store(true, Ordering::Relaxed);
             }
         });
         self.timers.add(Stage::Collide, t0);
@@ -497,6 +582,8 @@ impl<R: Real> CpuSolver<R> {
             });
         }
         self.ensure_sized(m);
+        self.measure_next = false;
+        self.f.measured = false;
         let surface = self.forces(m, &state.particle_q, &state.particle_qd, state.time);
         let f = &self.f;
         par::chunks(out, |start, os| {
@@ -553,6 +640,8 @@ impl<R: Real> CpuSolver<R> {
         let t0 = Instant::now();
         let blown = AtomicBool::new(false);
         let h = R::from_f64(dt);
+        self.measure_next = true;
+        self.f.measured = false;
         match self.config.integrator {
             Integrator::SymplecticEuler => self.symplectic_euler(m, s, h, &blown),
             Integrator::VelocityVerlet => self.velocity_verlet(m, s, h, &blown),
@@ -593,7 +682,12 @@ impl<R: Real> Solver<R> for CpuSolver<R> {
         if !delta.is_empty() {
             self.sized_for = None;
             self.bound = None;
+            self.f.measured = false;
         }
+    }
+
+    fn fracture_measures(&self, model: &Model<R>) -> Option<crate::fracture::Measures<'_, R>> {
+        self.measures(model)
     }
 
     fn timers(&self) -> &StageTimers {
