@@ -27,7 +27,7 @@ def build() -> fissure.Model:
     return b.finalize()
 
 
-def main(duration: float = 1.5, dt: float = 1.25e-4) -> dict:
+def main(duration: float = 1.5, dt: float = 2e-4) -> dict:
     model = build()
     world = fissure.World(model, max_events_per_step=8, start_time=0.05)
     gas0 = None

@@ -157,7 +157,7 @@ pub enum StepError {
         particle: usize,
         /// position or velocity.
         what: &'static str,
-        /// The integrator's stability bound for the mesh \[s\] (Gershgorin, [`crate::stability`]); infinite for
+        /// The integrator's stability bound for the mesh \[s\] ([`crate::stability`]); infinite for
         /// the implicit integrator, NaN when the backend does not know it.
         stable_dt: f64,
     },

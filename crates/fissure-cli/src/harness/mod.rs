@@ -9,7 +9,7 @@
 //!
 //! Sections: `precision` (work–precision: RMS error against an f64 RK4 reference shown converged, against wall
 //! time, with measured convergence orders), `stability` (largest stable step by bisection against stiffness,
-//! next to the Gershgorin and 1-DOF bounds), `large-steps` (implicit Euler at dt = 1/60 s on stiff cloth), `terms`
+//! next to the solver's estimated, Gershgorin's and the 1-DOF bounds), `large-steps` (implicit Euler at dt = 1/60 s on stiff cloth), `terms`
 //! (cost of each force term, per stage), `speed` (step time against size, thread scaling, memory per element,
 //! fraction of the memory-bandwidth floor).
 

@@ -12,8 +12,8 @@
 //! | [`Integrator::Rk4`] | 4 | 4 | `dt < 2√2/ω` (slowly loses energy) |
 //! | [`Integrator::ImplicitEuler`] (Baraff–Witkin) | 1 | 1 + CG | unconditional for the linearised system |
 //!
-//! For a mesh, `ω` is the largest natural frequency; a Gershgorin bound is `ω² ≤ max_i Σ_s 2 k_s / m_i`, and
-//! damping lowers the limits further: [`crate::stability`] computes them. With
+//! For a mesh, `ω` is the largest natural frequency, and damping lowers the limits further: [`crate::stability`]
+//! estimates both (power iteration on the fastest mode; Gershgorin's `ω² ≤ max_i Σ_s 2 k_s / m_i` caps it). With
 //! [`SolverConfig::substep_safety`] set, `step` splits a too-large `dt` into substeps under that bound; a state
 //! that blows up anyway is reported as [`StepError::NonFinite`] with the bound, so the message says whether the
 //! step was too large or something else (pressure, a collision, a broken state) did it.
@@ -32,6 +32,9 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::Instant;
 
 mod implicit;
+
+/// Steps between two estimates of the stability bound while the substep guard is on.
+const BOUND_REFRESH: usize = 256;
 
 /// Particles per block of the collision pass's broad test (one bounding box per block).
 const COLLIDE_BLOCK: usize = 32;
@@ -187,6 +190,12 @@ pub struct CpuSolver<R: Real = f32> {
     pub cg: CgStats,
     /// The model's stability bound, cached for the `sized_for` key.
     bound: Option<StabilityBound>,
+    /// The stiffest mode found by the last bound estimate (the warm start of the next).
+    mode: Vec<glam::DVec3>,
+    /// Steps since the bound was estimated, and the stepping time (`timers.total`) then.
+    bound_age: (usize, std::time::Duration),
+    /// Time the last estimate took.
+    bound_cost: std::time::Duration,
     /// Substeps the last `step` took.
     last_substeps: usize,
     /// The next force evaluation is the first of a substep: it measures the fracture trigger's inputs.
@@ -599,10 +608,27 @@ impl<R: Real> CpuSolver<R> {
         &self.f.body_volume
     }
 
-    /// The explicit stability bound of `m` (cached; see [`SolverConfig::substep_safety`]).
+    /// The explicit stability bound of `m` at its initial positions (cached; see
+    /// [`SolverConfig::substep_safety`]).
     pub fn stability_bound(&mut self, m: &Model<R>) -> StabilityBound {
+        let q0 = m.particle_q0.clone();
+        self.bound_at(m, &q0)
+    }
+
+    /// The bound at positions `q`, cached until the model changes; re-estimated from the last stiffest mode (a
+    /// warm start: a fracture changes the mode only near the break).
+    fn bound_at(&mut self, m: &Model<R>, q: &[R::V]) -> StabilityBound {
         self.ensure_sized(m);
-        *self.bound.get_or_insert_with(|| StabilityBound::of(m))
+        if let Some(b) = self.bound {
+            return b;
+        }
+        let t = Instant::now();
+        let q: Vec<glam::DVec3> = q.iter().map(|x| x.to_dvec3()).collect();
+        let b = StabilityBound::estimate(m, &q, &mut self.mode);
+        self.bound = Some(b);
+        self.bound_cost = t.elapsed();
+        self.bound_age = (0, self.timers.total);
+        b
     }
 
     /// Substeps the last [`Solver::step`] took (1 unless the stability guard split it).
@@ -621,7 +647,16 @@ impl<R: Real> CpuSolver<R> {
         self.ensure_sized(m);
         let mut substeps = 1;
         if let Some(safety) = self.config.substep_safety {
-            let limit = safety * self.stability_bound(m).max_dt(self.config.integrator);
+            // The fastest mode follows the deformation (a stretched spring stiffens transversally): re-estimated
+            // from the last mode (a warm start converges in a few sweeps) every BOUND_REFRESH steps, and no more
+            // often than keeps the estimates under 5% of the stepping time.
+            self.bound_age.0 += 1;
+            if self.bound_age.0 > BOUND_REFRESH
+                && self.timers.total.saturating_sub(self.bound_age.1) > 20 * self.bound_cost
+            {
+                self.bound = None;
+            }
+            let limit = safety * self.bound_at(m, &s.particle_q).max_dt(self.config.integrator);
             if dt > limit {
                 // Cap the count so a zero-mass or absurd bound cannot hang the caller.
                 // (1 - 1e-12): a ratio that is an integer up to round-off takes that many substeps, not one more.
@@ -664,6 +699,7 @@ impl<R: Real> CpuSolver<R> {
                     }
                 })
                 .unwrap_or((0, "velocity"));
+            // The cached bound, else the one at the initial positions (the blown state has none).
             let stable_dt = self.stability_bound(m).max_dt(self.config.integrator);
             return Err(StepError::NonFinite { time: s.time, dt, particle, what, stable_dt });
         }
