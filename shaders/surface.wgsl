@@ -1,7 +1,7 @@
 // The surface pass: triangle crosses, gas-body volumes (a two-pass workgroup reduction), pressures, and the
 // per-corner force of each triangle (the seed's eq. (9) pressure force plus wind drag and lift).
 // Twin of `ForceScratch::surface` in `fissure_core::forces` (the formulas: `forces::pressure::{gas_pressure,
-// corner_force}`, `forces::wind::aero_force`). Encoded only when the model has gas or wind.
+// corner_force}`, `forces::wind::aero_components`). Encoded only when the model has gas or wind.
 
 const TAU: f32 = 6.283185307179586;
 
@@ -157,7 +157,7 @@ fn wind_sample(x: vec3<f32>, t: f32) -> vec3<f32> {
     return u * (1.0 + params.wind_p.x * sin(phase)) + side * (params.wind_p.w * speed * sin(phase2));
 }
 
-// Drag and lift on a triangle with cross vector `c` in relative air velocity `v`: twin of `aero_force`.
+// Drag and lift on a triangle with cross vector `c` in relative air velocity `v`: twin of `aero_components`.
 fn aero_force(c: vec3<f32>, v: vec3<f32>, cd: f32, cl: f32, rho_half: f32) -> vec3<f32> {
     let c_len = length(c);
     let speed = length(v);

@@ -71,6 +71,34 @@ fn gusty_wind_varies_in_space_and_time() {
     assert!((mean - w.velocity).length() < 0.05 * w.velocity.length(), "mean wind {mean:?}");
 }
 
+/// The force pass samples the wind through `WindField::prepare` (phases reduced once per step, polynomial sines):
+/// it agrees with the `f64` reference `WindField::sample` to f32 rounding in `f32` and to 1e-10 in `f64` (at
+/// t = 1e5 s the reference's own phase, 3e5 rad, carries 6e-11 of rounding), and far from the origin; the sine
+/// itself to 1e-6 / 1e-14.
+#[test]
+fn prepared_wind_matches_the_reference_field() {
+    let w = WindField { velocity: DVec3::new(3.0, 0.5, 4.0), crosswind: 0.3, ..Default::default() };
+    let mut worst = (0.0f64, 0.0f64);
+    for (k, t) in [0.0, 0.013, 1.7, 33.3, 1e5 + 0.25].into_iter().enumerate() {
+        let p32 = w.prepare::<f32>(t);
+        let p64 = w.prepare::<f64>(t);
+        for j in 0..200 {
+            let x = DVec3::new(j as f64 * 0.37 - 30.0, (j % 7) as f64 * 0.5, (k * j % 11) as f64 - 5.0);
+            let want = w.sample(x, t);
+            let got32 = p32.sample(x.as_vec3()).as_dvec3();
+            let got64 = p64.sample(x);
+            worst.0 = worst.0.max((got32 - want).length() / w.velocity.length());
+            worst.1 = worst.1.max((got64 - want).length() / w.velocity.length());
+        }
+    }
+    assert!(worst.0 < 2e-5 && worst.1 < 1e-10, "relative wind error f32 {:e}, f64 {:e}", worst.0, worst.1);
+    for k in -2000..2000 {
+        let x = k as f64 * 0.01 + 0.003;
+        assert!((fissure_core::wind::sin(x as f32) as f64 - x.sin()).abs() < 1e-6 * (1.0 + x.abs()), "sin {x}");
+        assert!((fissure_core::wind::sin(x) - x.sin()).abs() < 1e-14, "sin {x} in f64");
+    }
+}
+
 #[test]
 fn absent_terms_are_never_entered() {
     let cases: [(&str, bool, bool, bool); 4] = [

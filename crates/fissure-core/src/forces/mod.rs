@@ -13,7 +13,6 @@ pub mod wind;
 use crate::model::Model;
 use crate::par;
 use crate::real::{Real, Vector3};
-use wind::aero_force;
 
 /// Reusable buffers of the force passes (allocated once per model size, never per step).
 #[derive(Clone, Debug, Default)]
@@ -164,26 +163,16 @@ impl<R: Real> ForceScratch<R> {
         // Pass B: per-corner force of each triangle.
         let wind = if m.has_wind() { m.wind.as_ref() } else { None };
         let rho_half = R::from_f64(0.5 * wind.map_or(0.0, |w| w.air_density));
-        let third = R::from_f64(1.0 / 3.0);
+        let wind = wind.map(|w| w.prepare::<R>(time));
         let body_pressure = &self.body_pressure;
         let tri_cross = &self.tri_cross;
         par::chunks(&mut self.tri_f, |start, out| {
+            if let Some(w) = &wind {
+                return wind::wind_chunk(m, q, qd, tri_cross, body_pressure, w, rho_half, start, out);
+            }
             for (k, f) in out.iter_mut().enumerate() {
                 let t = start + k;
-                let body = m.tri_body[t] as usize;
-                let c = tri_cross[t];
-                let mut force = pressure::corner_force(c, body_pressure[body]);
-                if let Some(w) = wind {
-                    let (cd, cl) = (m.body_drag[body], m.body_lift[body]);
-                    if cd != R::ZERO || cl != R::ZERO {
-                        let [a, b, d] = m.tri_indices[t];
-                        let centroid = (q[a as usize] + q[b as usize] + q[d as usize]) * third;
-                        let vel = (qd[a as usize] + qd[b as usize] + qd[d as usize]) * third;
-                        let air = R::V::from_dvec3(w.sample(centroid.to_dvec3(), time));
-                        force += aero_force(c, air - vel, cd, cl, rho_half) * third;
-                    }
-                }
-                *f = force;
+                *f = pressure::corner_force(tri_cross[t], body_pressure[m.tri_body[t] as usize]);
             }
         });
     }

@@ -12,6 +12,7 @@
 //!
 //! split equally over the three corners. Both vanish on a sheet moving with the air.
 
+use crate::model::Model;
 use crate::real::{Real, Vector3};
 use glam::DVec3;
 
@@ -76,7 +77,38 @@ impl WindField {
         Ok(())
     }
 
-    /// Wind velocity at point `x` \[m\] and time `t` \[s\].
+    /// The field at time `t` \[s\] in the solver's precision, for sampling many points: the direction, the
+    /// crosswind axis and the time part of both phases are taken once (the phases reduced modulo 2π in `f64`, so a
+    /// long run keeps them exact), and each point costs a dot product and two polynomial sines. Agrees with
+    /// [`WindField::sample`] to the precision `R` carries (tested).
+    pub fn prepare<R: Real>(&self, t: f64) -> PreparedWind<R> {
+        let speed = self.velocity.length();
+        let tau = std::f64::consts::TAU;
+        if speed == 0.0 {
+            let z = R::V::ZERO;
+            return PreparedWind { u: z, k: z, side: z, gust: R::ZERO, t1: R::ZERO, t2: R::ZERO };
+        }
+        let dir = self.velocity / speed;
+        let side = self.side(dir);
+        let f = self.gust_frequency;
+        PreparedWind {
+            u: R::V::from_dvec3(self.velocity),
+            k: R::V::from_dvec3(dir * (tau / self.gust_wavelength.max(1e-9))),
+            side: R::V::from_dvec3(side * (self.crosswind * speed)),
+            gust: R::from_f64(self.gust_amplitude),
+            t1: R::from_f64((f * t).rem_euclid(1.0) * tau),
+            t2: R::from_f64((0.37 * f * t).rem_euclid(1.0) * tau),
+        }
+    }
+
+    /// The horizontal unit vector across the wind direction `dir`.
+    fn side(&self, dir: DVec3) -> DVec3 {
+        let side = dir.cross(DVec3::Y);
+        if side.length_squared() < 1e-12 { DVec3::X } else { side.normalize() }
+    }
+
+    /// Wind velocity at point `x` \[m\] and time `t` \[s\] (`f64`, the reference; the force pass samples a
+    /// [`PreparedWind`]).
     pub fn sample(&self, x: DVec3, t: f64) -> DVec3 {
         let speed = self.velocity.length();
         if speed == 0.0 {
@@ -87,13 +119,70 @@ impl WindField {
         let along = x.dot(dir) / self.gust_wavelength.max(1e-9);
         let phase = tau * (self.gust_frequency * t - along);
         let phase2 = tau * (0.37 * self.gust_frequency * t - 0.61 * along);
-        let mut side = dir.cross(DVec3::Y);
-        if side.length_squared() < 1e-12 {
-            side = DVec3::X;
-        }
-        let side = side.normalize();
+        let side = self.side(dir);
         self.velocity * (1.0 + self.gust_amplitude * phase.sin()) + side * (self.crosswind * speed * phase2.sin())
     }
+}
+
+/// A [`WindField`] prepared for one time ([`WindField::prepare`]).
+#[derive(Clone, Copy, Debug)]
+pub struct PreparedWind<R: Real> {
+    u: R::V,
+    /// `2π Û / λ`: the gust phase per metre downwind.
+    k: R::V,
+    /// The crosswind axis times `b |U|`.
+    side: R::V,
+    gust: R,
+    /// `2π f t` and `2π 0.37 f t`, reduced to `[0, 2π)`.
+    t1: R,
+    t2: R,
+}
+
+impl<R: Real> PreparedWind<R> {
+    /// Wind velocity at `x` \[m\]: `U (1 + a sin φ) + b |U| sin(φ') ê`, as [`WindField::sample`].
+    #[inline(always)]
+    pub fn sample(&self, x: R::V) -> R::V {
+        let [a, b, c] = self.sample_components(x.to_array());
+        R::V::new(a, b, c)
+    }
+
+    /// [`PreparedWind::sample`] per component (the form the span loop vectorises).
+    #[inline(always)]
+    pub fn sample_components(&self, x: [R; 3]) -> [R; 3] {
+        let [kx, ky, kz] = self.k.to_array();
+        let along = x[0] * kx + x[1] * ky + x[2] * kz;
+        let g = R::ONE + self.gust * sin(self.t1 - along);
+        let s = sin(self.t2 - along * R::from_f64(0.61));
+        let (u, side) = (self.u.to_array(), self.side.to_array());
+        [u[0] * g + side[0] * s, u[1] * g + side[1] * s, u[2] * g + side[2] * s]
+    }
+}
+
+/// `sin x` by reduction to `[-π/2, π/2]` and an odd Taylor polynomial: degree 13 for `f32` (error below 1e-9,
+/// beneath `f32`'s rounding), degree 21 for `f64` (below 1e-16). Branch-free (the precision switch is a constant),
+/// so a loop of them vectorises: a fraction of a libm call.
+#[inline(always)]
+pub fn sin<R: Real>(x: R) -> R {
+    let c = |v: f64| R::from_f64(v);
+    let pi = c(std::f64::consts::PI);
+    // x - 2π round(x / 2π) in [-π, π] (rounding by adding and subtracting 1.5·2^(mantissa bits), exact for
+    // |x| < 2^20 rad: no libm call), then sin(x) = sin(π - x) folds [π/2, π] onto [0, π/2].
+    let magic = if R::EPSILON.to_f64() < 1e-10 { c(1.5 * 2f64.powi(52)) } else { c(1.5 * 2f64.powi(23)) };
+    let r = x - c(std::f64::consts::TAU) * ((x * c(1.0 / std::f64::consts::TAU) + magic) - magic);
+    // Fold without branches: |r| in [0, π] to h - |h - |r|| in [0, π/2] (h = π/2), the sign of r outside.
+    let h = pi * c(0.5);
+    let sign = if r < R::ZERO { -R::ONE } else { R::ONE };
+    let r = (h - (h - r.abs()).abs()) * sign;
+    let r2 = r * r;
+    // Horner from the highest term, written out (an inner loop would stop the caller's loop vectorising):
+    // sin r = r (1 - r²/(2·3) (1 - r²/(4·5) (1 - …))).
+    let t = |p: R, k: f64| R::ONE - r2 * c(1.0 / ((2.0 * k) * (2.0 * k + 1.0))) * p;
+    let p = if R::EPSILON.to_f64() < 1e-10 {
+        t(t(t(t(t(t(t(t(t(t(R::ONE, 10.0), 9.0), 8.0), 7.0), 6.0), 5.0), 4.0), 3.0), 2.0), 1.0)
+    } else {
+        t(t(t(t(t(t(R::ONE, 6.0), 5.0), 4.0), 3.0), 2.0), 1.0)
+    };
+    r * p
 }
 
 /// Aerodynamic coefficients of a surface. Zero for both switches the body's aerodynamics off.
@@ -121,24 +210,133 @@ impl Aero {
     }
 }
 
-/// Drag and lift on a triangle with cross vector `c = 2 A n̂`, in relative air velocity `v` (see the module docs).
+/// Drag and lift on a triangle with cross vector `c = 2 A n̂`, in relative air velocity `v` (see the module docs),
+/// per component and branch-free (selects only), so the span loop of the wind pass vectorises: a degenerate
+/// triangle (`c = 0`) or still air (`v = 0`) gives zero through the zero reciprocals.
 ///
 /// GPU twin: `aero_force` in `shaders/surface.wgsl` (used by the kernel `surface_force`).
-#[inline]
-pub(crate) fn aero_force<R: Real>(c: R::V, v: R::V, cd: R, cl: R, rho_half: R) -> R::V {
-    let c_len = c.length();
-    let speed = v.length();
-    if c_len <= R::ZERO || speed <= R::ZERO {
-        return R::V::ZERO;
+#[inline(always)]
+pub(crate) fn aero_components<R: Real>(c: [R; 3], v: [R; 3], cd: R, cl: R, rho_half: R) -> [R; 3] {
+    let c_len = (c[0] * c[0] + c[1] * c[1] + c[2] * c[2]).sqrt();
+    let speed = (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
+    let inv_c = if c_len > R::ZERO { R::ONE / c_len } else { R::ZERO };
+    let inv_s = if speed > R::ZERO { R::ONE / speed } else { R::ZERO };
+    let n = [c[0] * inv_c, c[1] * inv_c, c[2] * inv_c];
+    let vn = n[0] * v[0] + n[1] * v[1] + n[2] * v[2];
+    // The normal facing the flow: n·v ≥ 0.
+    let sign = if vn < R::ZERO { -R::ONE } else { R::ONE };
+    let (n, vn) = ([n[0] * sign, n[1] * sign, n[2] * sign], vn * sign);
+    let k = rho_half * (c_len * R::from_f64(0.5)) * vn;
+    let (kd, kl, vs) = (k * cd, k * cl, vn * inv_s);
+    [
+        v[0] * kd + (n[0] * speed - v[0] * vs) * kl,
+        v[1] * kd + (n[1] * speed - v[1] * vs) * kl,
+        v[2] * kd + (n[2] * speed - v[2] * vs) * kl,
+    ]
+}
+
+/// Triangles per span of the wind pass.
+const SPAN: usize = 64;
+
+/// Corner forces (pressure share + a third of drag and lift) of triangles `start .. start + out.len()`, a span
+/// at a time: per-lane inputs gathered into per-component arrays, the wind sample and [`aero_components`] run
+/// as plain loops over them (packed square roots, divisions and the polynomial sines), results scattered back.
+/// Compiled for AVX2 when the CPU has it (same bits: see `run_block_dispatch`).
+#[allow(clippy::too_many_arguments)]
+pub(crate) fn wind_chunk<R: Real>(
+    m: &Model<R>,
+    q: &[R::V],
+    qd: &[R::V],
+    cross: &[R::V],
+    pressure: &[R],
+    w: &PreparedWind<R>,
+    rho_half: R,
+    start: usize,
+    out: &mut [R::V],
+) {
+    #[cfg(target_arch = "x86_64")]
+    {
+        if std::arch::is_x86_feature_detected!("avx2") {
+            // SAFETY: the CPU supports AVX2, checked just above.
+            unsafe { wind_chunk_avx2(m, q, qd, cross, pressure, w, rho_half, start, out) };
+            return;
+        }
     }
-    let area = c_len * R::from_f64(0.5);
-    let mut n = c / c_len;
-    let mut vn = n.dot(v);
-    if vn < R::ZERO {
-        n = -n;
-        vn = -vn;
+    wind_chunk_impl(m, q, qd, cross, pressure, w, rho_half, start, out)
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+#[allow(clippy::too_many_arguments)]
+fn wind_chunk_avx2<R: Real>(
+    m: &Model<R>,
+    q: &[R::V],
+    qd: &[R::V],
+    cross: &[R::V],
+    pressure: &[R],
+    w: &PreparedWind<R>,
+    rho_half: R,
+    start: usize,
+    out: &mut [R::V],
+) {
+    wind_chunk_impl(m, q, qd, cross, pressure, w, rho_half, start, out)
+}
+
+#[allow(clippy::too_many_arguments)]
+#[inline(always)]
+fn wind_chunk_impl<R: Real>(
+    m: &Model<R>,
+    q: &[R::V],
+    qd: &[R::V],
+    cross: &[R::V],
+    pressure: &[R],
+    w: &PreparedWind<R>,
+    rho_half: R,
+    start: usize,
+    out: &mut [R::V],
+) {
+    let third = R::from_f64(1.0 / 3.0);
+    let z = [[R::ZERO; SPAN]; 3];
+    let (mut c, mut x, mut v, mut f) = (z, z, z, z);
+    let (mut cd, mut cl, mut p) = ([R::ZERO; SPAN], [R::ZERO; SPAN], [R::ZERO; SPAN]);
+    let mut k0 = 0;
+    while k0 < out.len() {
+        let n = (out.len() - k0).min(SPAN);
+        for k in 0..n {
+            let t = start + k0 + k;
+            let body = m.tri_body[t] as usize;
+            let [a, b, d] = m.tri_indices[t].map(|i| i as usize);
+            let centroid = ((q[a] + q[b] + q[d]) * third).to_array();
+            let vel = ((qd[a] + qd[b] + qd[d]) * third).to_array();
+            let cr = cross[t].to_array();
+            for e in 0..3 {
+                (c[e][k], x[e][k], v[e][k]) = (cr[e], centroid[e], vel[e]);
+            }
+            (cd[k], cl[k], p[k]) = (m.body_drag[body], m.body_lift[body], pressure[body]);
+        }
+        // Three simple loops over the lanes (each one vectorises): the wind, the relative air, the forces.
+        let mut air = z;
+        for k in 0..SPAN {
+            [air[0][k], air[1][k], air[2][k]] = w.sample_components([x[0][k], x[1][k], x[2][k]]);
+        }
+        for k in 0..SPAN {
+            for e in 0..3 {
+                air[e][k] -= v[e][k];
+            }
+        }
+        let sixth = R::from_f64(1.0 / 6.0);
+        for k in 0..SPAN {
+            let cr = [c[0][k], c[1][k], c[2][k]];
+            let a = aero_components(cr, [air[0][k], air[1][k], air[2][k]], cd[k], cl[k], rho_half);
+            let ps = p[k] * sixth;
+            for e in 0..3 {
+                // `pressure::corner_force` (c · p/6) plus a third of the aerodynamic force.
+                f[e][k] = cr[e] * ps + a[e] * third;
+            }
+        }
+        for k in 0..n {
+            out[k0 + k] = R::V::new(f[0][k], f[1][k], f[2][k]);
+        }
+        k0 += n;
     }
-    let drag = v * (rho_half * cd * area * vn);
-    let lift = (n * speed - v * (vn / speed)) * (rho_half * cl * area * vn);
-    drag + lift
 }
