@@ -145,6 +145,21 @@ pub fn run(r: &mut Report) -> Result<(), String> {
                     format!("{fracture_calls} fracture calls"),
                 );
             }
+            // Issue 15's goals: each present term at most a fraction of the spring pass of the same run.
+            let goal = match term {
+                Term::Plain => None,
+                Term::Pressure | Term::Wind => Some((Stage::Surface, 1.0)),
+                Term::Colliders => Some((Stage::Collide, 0.3)),
+                Term::Fracture => Some((Stage::Fracture, 0.2)),
+            };
+            if let Some((stage, limit)) = goal {
+                let ratio = per(stage) / per(Stage::Springs).max(1e-9);
+                r.target(
+                    format!("{body} {}: {} ≤ {limit}× the spring pass", term.name(), stage.name()),
+                    ratio <= limit,
+                    format!("{ratio:.2}×"),
+                );
+            }
         }
     }
     r.csv("terms.csv", "body,terms,us_per_step,springs_us,surface_us,integrate_us,collide_us,fracture_us", &rows)

@@ -279,8 +279,9 @@ pub struct Fracture<R: Real = f32> {
     /// Body volumes of the current call (empty: not yet computed, or stale after a split).
     volumes: Vec<f64>,
     spring_force: Vec<DVec3>,
-    /// Each spring's strain (the scan without a solver's measures).
+    /// Each spring's strain and each particle's load (the scan without a solver's measures).
     strain: Vec<R>,
+    load: Vec<f64>,
     /// Per-particle stamp: `step_gen` if touched this step.
     touched: Vec<u32>,
     step_gen: u32,

@@ -39,47 +39,63 @@ impl<R: Real> Fracture<R> {
         if m.particle_load_limit.iter().any(|l| l.is_finite()) {
             // The load: |net elastic force| on the particle, its springs' `ks (l - L0) d̂` and its share of the gas
             // pressure. Each spring's and each triangle's term once, then per particle the sum over its rows.
-            self.spring_force.clear();
-            self.spring_force.extend(m.spring_indices.iter().enumerate().map(|(sp, &[i, j])| {
-                let d = q[j as usize].to_dvec3() - q[i as usize].to_dvec3();
-                spring::elastic_force::<f64>(d, m.spring_rest_length[sp].to_f64(), m.spring_stiffness[sp].to_f64())
-            }));
+            // Element-wise passes over fixed chunks (par): the same bits on any thread count.
+            self.spring_force.resize(m.spring_count(), DVec3::ZERO);
+            par::chunks(&mut self.spring_force, |start, out| {
+                for (k, f) in out.iter_mut().enumerate() {
+                    let sp = start + k;
+                    let [i, j] = m.spring_indices[sp];
+                    let d = q[j as usize].to_dvec3() - q[i as usize].to_dvec3();
+                    let (rest, ks) = (m.spring_rest_length[sp].to_f64(), m.spring_stiffness[sp].to_f64());
+                    *f = spring::elastic_force::<f64>(d, rest, ks);
+                }
+            });
             self.tri_force.clear();
             if m.has_pressure() {
                 let pressures = self.pressures(m, s);
-                self.tri_force.extend(m.tri_indices.iter().zip(&m.tri_body).map(|(tri, &b)| {
-                    let p = pressures[b as usize];
-                    if p == 0.0 {
-                        return DVec3::ZERO;
+                self.tri_force.resize(m.tri_count(), DVec3::ZERO);
+                par::chunks(&mut self.tri_force, |start, out| {
+                    for (k, f) in out.iter_mut().enumerate() {
+                        let t = start + k;
+                        let p = pressures[m.tri_body[t] as usize];
+                        *f = if p == 0.0 {
+                            DVec3::ZERO
+                        } else {
+                            let [a, b, c] = m.tri_indices[t].map(|v| q[v as usize].to_dvec3());
+                            pressure::corner_force::<f64>((b - a).cross(c - a), p)
+                        };
                     }
-                    let [a, b, c] = tri.map(|v| q[v as usize].to_dvec3());
-                    pressure::corner_force::<f64>((b - a).cross(c - a), p)
-                }));
+                });
             }
-            for i in 0..n {
+            let mut load = std::mem::take(&mut self.load);
+            load.resize(n, 0.0);
+            let (springs, tris) = (&self.spring_force, &self.tri_force);
+            par::chunks(&mut load, |start, out| {
+                for (k, l) in out.iter_mut().enumerate() {
+                    let i = start + k;
+                    if !m.particle_load_limit[i].is_finite() || m.particle_inv_mass[i] == R::ZERO {
+                        continue;
+                    }
+                    let mut f = crate::forces::spring_gather::<f64>(DVec3::ZERO, m.particle_springs.row(i), springs);
+                    if !tris.is_empty() {
+                        for &t in m.particle_tris.row(i) {
+                            f += tris[t as usize];
+                        }
+                    }
+                    *l = f.length();
+                }
+            });
+            for (i, &l) in load.iter().enumerate() {
                 let lim = m.particle_load_limit[i];
                 if !lim.is_finite() || m.particle_inv_mass[i] == R::ZERO {
                     continue;
                 }
-                let mut f = DVec3::ZERO;
-                for &e in m.particle_springs.row(i) {
-                    let v = self.spring_force[(e >> 1) as usize];
-                    if e & 1 == 0 {
-                        f += v;
-                    } else {
-                        f -= v;
-                    }
-                }
-                if !self.tri_force.is_empty() {
-                    for &t in m.particle_tris.row(i) {
-                        f += self.tri_force[t as usize];
-                    }
-                }
-                let v = triggered(&mut self.particle_avg[i], R::from_f64(f.length()), alpha);
+                let v = triggered(&mut self.particle_avg[i], R::from_f64(l), alpha);
                 if v > lim {
                     self.candidates.push(((v / lim).to_f64(), 1, i as u32));
                 }
             }
+            self.load = load;
         }
         self.candidates.sort_by(|a, b| b.0.total_cmp(&a.0).then(a.1.cmp(&b.1)).then(a.2.cmp(&b.2)));
     }

@@ -1,0 +1,121 @@
+//! The pressurised ball, the seed's central object, as issue 15's targets state it: an icosphere (r = 0.25 m,
+//! 0.4 kg) of 642 or 2,562 vertices, springs of 1e3 N/m, gas nRT = 200 J, the ground, symplectic Euler,
+//! dt = 1e-4 s, `f32`, all threads. Also the same ball built from a shuffled mesh (vertices and triangles in a
+//! random order: springs and triangles arrive shuffled), and the 2,562-vertex ball after 100 core splits.
+//!
+//! Run: `cargo bench --bench ball` (prints µs per step and the ratios, then criterion's figures).
+//! `FISSURE_BENCH_QUICK=1` runs the 642-vertex ball only, briefly, as CI does.
+
+use criterion::{Criterion, criterion_group, criterion_main};
+use fissure::glam::DVec3;
+use fissure::*;
+use std::hint::black_box;
+use std::time::Instant;
+
+const DT: f64 = 1e-4;
+
+/// splitmix64.
+fn next(seed: &mut u64) -> u64 {
+    *seed = seed.wrapping_add(0x9E37_79B9_7F4A_7C15);
+    let mut z = *seed;
+    z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+    z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+    z ^ (z >> 31)
+}
+
+/// The icosphere of `subdivisions`, optionally with its vertices renumbered and its triangles reordered at random.
+fn mesh(subdivisions: u32, shuffled: bool) -> Mesh {
+    let m = Mesh::icosphere(0.25, subdivisions).translated(DVec3::new(0.0, 0.3, 0.0));
+    if !shuffled {
+        return m;
+    }
+    let mut seed = 42;
+    let n = m.vertex_count();
+    let mut perm: Vec<u32> = (0..n as u32).collect();
+    for i in (1..n).rev() {
+        perm.swap(i, (next(&mut seed) % (i as u64 + 1)) as usize);
+    }
+    let mut positions = vec![DVec3::ZERO; n];
+    for (old, &new) in perm.iter().enumerate() {
+        positions[new as usize] = m.positions()[old];
+    }
+    let mut tris: Vec<[u32; 3]> = m.triangles().iter().map(|t| t.map(|v| perm[v as usize])).collect();
+    for i in (1..tris.len()).rev() {
+        tris.swap(i, (next(&mut seed) % (i as u64 + 1)) as usize);
+    }
+    Mesh::new(positions, tris).expect("a renumbered icosphere is a valid mesh")
+}
+
+fn ball(subdivisions: u32, shuffled: bool, breakable: bool) -> Model<f32> {
+    let mut b = ModelBuilder::new();
+    let opts = SoftBodyOptions {
+        mass: Mass::Total(0.4),
+        stiffness: Stiffness::PerSpring(1e3),
+        gas: Gas::Amount(200.0),
+        fracture: breakable.then_some(Breakable { strain_limit: f64::INFINITY, load_limit: 1e9, sealed: true }),
+        ..Default::default()
+    };
+    b.add_soft_body(&mesh(subdivisions, shuffled), &opts).unwrap();
+    b.add_collider(Collider::ground(0.0)).unwrap();
+    b.finalize().unwrap()
+}
+
+/// µs per step over `steps` steps after 200 warm-up steps.
+fn time_world(w: &mut World<f32>, steps: usize) -> f64 {
+    for _ in 0..200 {
+        w.step(DT).unwrap();
+    }
+    w.reset_timers();
+    let t0 = Instant::now();
+    for _ in 0..steps {
+        w.step(DT).unwrap();
+    }
+    t0.elapsed().as_secs_f64() / steps as f64 * 1e6
+}
+
+fn bench(c: &mut Criterion) {
+    let quick = std::env::var_os("FISSURE_BENCH_QUICK").is_some();
+    let steps = if quick { 200 } else { 5000 };
+    let threads = rayon::current_num_threads();
+    let sizes: &[u32] = if quick { &[3] } else { &[3, 4] };
+    for &sub in sizes {
+        let mut w = World::new(ball(sub, false, false), SolverConfig::default());
+        let n = w.model.particle_count();
+        // Best of three runs: the VM's neighbours add noise, never speed.
+        let plain = (0..3).map(|_| time_world(&mut w, steps)).fold(f64::INFINITY, f64::min);
+        println!("ball {n} vertices, {threads} threads: {plain:.1} µs/step");
+        println!("{}", w.timers());
+        let mut ws = World::new(ball(sub, true, false), SolverConfig::default());
+        let shuffled = (0..3).map(|_| time_world(&mut ws, steps)).fold(f64::INFINITY, f64::min);
+        println!("  shuffled mesh: {shuffled:.1} µs/step ({:.2}x the original order)", shuffled / plain);
+        if sub == 4 || quick {
+            // 100 punctures spread over the surface (core mode; every vertex is breakable but none by load).
+            let mut wb = World::new(ball(sub, false, true), SolverConfig::default());
+            let intact = (0..3).map(|_| time_world(&mut wb, steps)).fold(f64::INFINITY, f64::min);
+            println!("{}", wb.timers());
+            let (mut done, mut v) = (0, 0);
+            while done < 100 && v < n {
+                done += (!wb.break_core(v).unwrap().is_empty()) as usize;
+                v += 17;
+            }
+            let broken = (0..3).map(|_| time_world(&mut wb, steps)).fold(f64::INFINITY, f64::min);
+            println!("{}", wb.timers());
+            println!(
+                "  breakable ball: intact {intact:.1} µs/step, after {done} core splits {broken:.1} µs/step ({:.2}x)",
+                broken / intact
+            );
+        }
+        let model = ball(sub, false, false);
+        let mut state = model.state();
+        let mut solver = CpuSolver::<f32>::default();
+        c.bench_function(&format!("ball_{n}_symplectic_euler_step"), |b| {
+            b.iter(|| {
+                solver.step(&model, &mut state, DT).unwrap();
+                black_box(&state);
+            })
+        });
+    }
+}
+
+criterion_group!(benches, bench);
+criterion_main!(benches);
