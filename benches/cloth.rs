@@ -35,6 +35,25 @@ fn bench(c: &mut Criterion) {
         model.particle_count() as f64 / per_step
     );
     println!("{}", solver.timers());
+    // Implicit Euler at 1/60 s on the 32² cloth (issue 15's large-step row): time per step and CG iterations.
+    {
+        let model: Model<f32> = fissure::scenes::benchmark_cloth(32).unwrap().finalize().unwrap();
+        let mut state = model.state();
+        let mut solver = CpuSolver::<f32>::with_integrator(Integrator::ImplicitEuler);
+        let h = 1.0 / 60.0;
+        let (mut iterations, steps) = (0, 120);
+        let t0 = Instant::now();
+        for _ in 0..steps {
+            solver.step(&model, &mut state, h).unwrap();
+            iterations += solver.cg.iterations;
+        }
+        let per_step = t0.elapsed().as_secs_f64() / steps as f64;
+        println!(
+            "cloth 32x32 implicit Euler at 1/60 s: {:.2} ms/step, {:.1} CG iterations per step (2 s of motion)",
+            per_step * 1e3,
+            iterations as f64 / steps as f64
+        );
+    }
     c.bench_function(&format!("cloth_{n}x{n}_symplectic_euler_step"), |b| {
         b.iter(|| {
             solver.step(&model, &mut state, dt).unwrap();
