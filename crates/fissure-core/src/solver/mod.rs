@@ -196,6 +196,10 @@ pub struct CpuSolver<R: Real = f32> {
     last_substeps: usize,
     /// The next force evaluation is the first of a substep: it measures the fracture trigger's inputs.
     measure_next: bool,
+    /// The caller of the next force evaluation sums the loads in its own gather (symplectic Euler without wind)…
+    fuse_loads: bool,
+    /// …and must, because that evaluation measured.
+    loads_pending: bool,
 }
 
 #[derive(Clone, Debug, Default)]
@@ -258,6 +262,7 @@ impl<R: Real> CpuSolver<R> {
     /// on the fracture scene.)
     fn forces(&mut self, m: &Model<R>, q: &[R::V], qd: &[R::V], time: f64) -> bool {
         let measure = std::mem::take(&mut self.measure_next) && self.f.measuring;
+        let fuse = std::mem::take(&mut self.fuse_loads) && self.f.load.len() == q.len();
         if m.spring_count() > 0 {
             let t = Instant::now();
             if measure {
@@ -278,7 +283,11 @@ impl<R: Real> CpuSolver<R> {
             if m.spring_count() == 0 {
                 self.f.strain.iter_mut().for_each(|s| *s = R::ZERO);
             }
-            self.f.loads(m, surface);
+            if fuse {
+                self.loads_pending = true;
+            } else {
+                self.f.loads(m, surface);
+            }
             self.f.measured = true;
             self.timers.add(Stage::Fracture, t);
         }
@@ -300,7 +309,14 @@ impl<R: Real> CpuSolver<R> {
         if self.f.runs {
             return self.symplectic_euler_runs(m, s, dt, blown);
         }
+        // Without wind a triangle's corner force is its pressure share alone, so a measuring step sums each
+        // particle's fracture load in this gather (one walk of its rows for both sums, the same bits as the load
+        // pass) instead of in a pass of its own.
+        self.fuse_loads = !m.has_wind();
         let surface = self.forces(m, &s.particle_q, &s.particle_qd, s.time);
+        if std::mem::take(&mut self.loads_pending) {
+            return self.symplectic_euler_with_loads(m, s, dt, blown, surface);
+        }
         let t = Instant::now();
         let f = &self.f;
         par::chunks2(&mut s.particle_q, &mut s.particle_qd, |start, qs, vs| {
@@ -319,6 +335,65 @@ impl<R: Real> CpuSolver<R> {
                 blown.store(true, Ordering::Relaxed);
             }
         });
+        self.timers.add(Stage::Integrate, t);
+    }
+
+    /// [`CpuSolver::symplectic_euler`]'s update with the fracture loads summed in the same walk of each particle's
+    /// rows (see there; the forces are `particle_force`'s, the loads `load_of`'s, bit for bit).
+    fn symplectic_euler_with_loads(
+        &mut self,
+        m: &Model<R>,
+        s: &mut State<R>,
+        dt: R,
+        blown: &AtomicBool,
+        surface: bool,
+    ) {
+        let t = Instant::now();
+        let mut load = std::mem::take(&mut self.f.load);
+        let f = &self.f;
+        let gas = surface && m.has_pressure();
+        par::chunks3(&mut s.particle_q, &mut s.particle_qd, &mut load, |start, qs, vs, ls| {
+            let mut bad = false;
+            for k in 0..qs.len() {
+                let i = start + k;
+                let mut ft = m.gravity * m.particle_mass[i];
+                let mut fe = R::V::ZERO;
+                for &e in m.particle_springs.row(i) {
+                    let (sf, se) = (f.spring_f[(e >> 1) as usize], f.spring_el[(e >> 1) as usize]);
+                    if e & 1 == 0 {
+                        ft += sf;
+                        fe += se;
+                    } else {
+                        ft -= sf;
+                        fe -= se;
+                    }
+                }
+                if surface {
+                    for &tt in m.particle_tris.row(i) {
+                        let tf = f.tri_f[tt as usize];
+                        ft += tf;
+                        if gas {
+                            fe += tf;
+                        }
+                    }
+                    if !f.cap_f.is_empty() {
+                        ft += f.cap_f[i];
+                    }
+                }
+                ls[k] = if m.particle_load_limit[i].is_finite() { fe.length() } else { R::ZERO };
+                let w = m.particle_inv_mass[i];
+                if w == R::ZERO {
+                    continue;
+                }
+                vs[k] += ft * (w * dt);
+                qs[k] += vs[k] * dt;
+                bad |= !(vs[k].is_finite() && qs[k].is_finite());
+            }
+            if bad {
+                blown.store(true, Ordering::Relaxed);
+            }
+        });
+        self.f.load = load;
         self.timers.add(Stage::Integrate, t);
     }
 
