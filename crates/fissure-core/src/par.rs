@@ -11,9 +11,12 @@ use rayon::prelude::*;
 pub(crate) const CHUNK: usize = 2048;
 
 /// Below this many elements a pass runs inline on the calling thread. Handing work to the pool costs a
-/// wake-up of a sleeping worker (tens of microseconds when the step's passes are short and far apart), more
-/// than a few thousand springs cost to compute.
-pub(crate) const PAR_MIN: usize = 4 * CHUNK;
+/// wake-up of a sleeping worker (tens of microseconds on the development VM, more when the step's passes are
+/// short and far apart), more than thousands of springs cost to compute. Chosen by measurement (2026-11-23, the
+/// 2-core VM, `benches/ball.rs` and `benches/cloth.rs`): at 4 chunks (8,192) a 2,562-vertex ball after 100 core
+/// splits (10,675 springs, its spring pass now parallel) took 296–300 µs per step, at 8 chunks 194–201 µs; the
+/// 128² cloth 249 µs at both; at 16 chunks the cloth's 16,384-particle passes ran inline: 394 µs.
+pub(crate) const PAR_MIN: usize = 8 * CHUNK;
 
 /// Runs `f(start, chunk)` over `data` in fixed chunks, in parallel when there is more than one chunk.
 #[inline]

@@ -55,7 +55,7 @@ impl<R: Real> CpuSolver<R> {
                     hi = hi.max(x);
                 }
                 let mut count = 0;
-                let all = !(lo.is_finite() && hi.is_finite()) || prepared.len() > COLLIDE_NEAR;
+                let mut all = !(lo.is_finite() && hi.is_finite()) || prepared.len() > COLLIDE_NEAR;
                 if !all {
                     for (k, (p, c)) in prepared.iter().zip(&m.colliders).enumerate() {
                         if p.may_touch_box(c, lo, hi) {
@@ -66,6 +66,8 @@ impl<R: Real> CpuSolver<R> {
                     if count == 0 {
                         continue;
                     }
+                    // Every collider is near: the pre-test would only repeat the full resolve's first sweep.
+                    all = count == prepared.len();
                 }
                 for k in 0..qb.len() {
                     if inv_mass[p0 + k] == R::ZERO {
