@@ -23,17 +23,7 @@ impl<R: Real> Fracture<R> {
                 *e = spring::strain((q[j as usize] - q[i as usize]).length(), m.spring_rest_length[sp]);
             }
         });
-        let springs = alpha < 1.0 || any_over(&self.strain, &m.spring_strain_limit);
-        for sp in (0..ns).filter(|_| springs) {
-            let lim = m.spring_strain_limit[sp];
-            if !lim.is_finite() || m.spring_kind[sp] == SpringKind::Broken {
-                continue;
-            }
-            let v = triggered(&mut self.spring_avg[sp], self.strain[sp], alpha);
-            if v > lim {
-                self.candidates.push(((v / lim).to_f64(), 0, sp as u32));
-            }
-        }
+        spring_candidates(m, &self.strain, &mut self.spring_avg, alpha, &mut self.candidates);
         let n = m.particle_count();
         self.particle_avg.resize(n, R::ZERO);
         if m.particle_load_limit.iter().any(|l| l.is_finite()) {
@@ -85,16 +75,8 @@ impl<R: Real> Fracture<R> {
                     *l = f.length();
                 }
             });
-            for (i, &l) in load.iter().enumerate() {
-                let lim = m.particle_load_limit[i];
-                if !lim.is_finite() || m.particle_inv_mass[i] == R::ZERO {
-                    continue;
-                }
-                let v = triggered(&mut self.particle_avg[i], R::from_f64(l), alpha);
-                if v > lim {
-                    self.candidates.push(((v / lim).to_f64(), 1, i as u32));
-                }
-            }
+            let load_r: Vec<R> = load.iter().map(|&l| R::from_f64(l)).collect();
+            particle_candidates(m, &load_r, &mut self.particle_avg, alpha, &mut self.candidates);
             self.load = load;
         }
         self.candidates.sort_by(|a, b| b.0.total_cmp(&a.0).then(a.1.cmp(&b.1)).then(a.2.cmp(&b.2)));
@@ -107,33 +89,9 @@ impl<R: Real> Fracture<R> {
         let alpha = alpha(self.config.trigger, dt);
         let ns = m.spring_count();
         self.spring_avg.resize(ns, R::ZERO);
-        // Instantaneous trigger: one branch-free sweep (it vectorises) finds whether any value passes its limit
-        // at all, the usual answer being no; the per-item loop below runs only when one does.
-        let instant = alpha >= 1.0;
-        let springs = !instant || any_over(x.strain, &m.spring_strain_limit);
-        let particles = !instant || any_over(x.load, &m.particle_load_limit);
-        for sp in (0..ns).filter(|_| springs) {
-            let lim = m.spring_strain_limit[sp];
-            if !lim.is_finite() || m.spring_kind[sp] == SpringKind::Broken {
-                continue;
-            }
-            let v = triggered(&mut self.spring_avg[sp], x.strain[sp], alpha);
-            if v > lim {
-                self.candidates.push(((v / lim).to_f64(), 0, sp as u32));
-            }
-        }
-        let n = m.particle_count();
-        self.particle_avg.resize(n, R::ZERO);
-        for i in (0..n).filter(|_| particles) {
-            let lim = m.particle_load_limit[i];
-            if !lim.is_finite() || m.particle_inv_mass[i] == R::ZERO {
-                continue;
-            }
-            let v = triggered(&mut self.particle_avg[i], x.load[i], alpha);
-            if v > lim {
-                self.candidates.push(((v / lim).to_f64(), 1, i as u32));
-            }
-        }
+        spring_candidates(m, x.strain, &mut self.spring_avg, alpha, &mut self.candidates);
+        self.particle_avg.resize(m.particle_count(), R::ZERO);
+        particle_candidates(m, x.load, &mut self.particle_avg, alpha, &mut self.candidates);
         self.candidates.sort_by(|a, b| b.0.total_cmp(&a.0).then(a.1.cmp(&b.1)).then(a.2.cmp(&b.2)));
     }
 
@@ -149,6 +107,43 @@ impl<R: Real> Fracture<R> {
                 pressure::gas_pressure(gas.to_f64(), self.volumes[b], v0.to_f64(), ext.to_f64())
             })
             .collect()
+    }
+}
+
+/// Appends `(strain / limit, 0, spring)` for every unbroken spring whose (averaged) strain passes its limit.
+/// For the instantaneous trigger one branch-free sweep (it vectorises) first finds whether any does at all, the
+/// usual answer being no.
+fn spring_candidates<R: Real>(m: &Model<R>, strain: &[R], avg: &mut [R], alpha: f64, out: &mut Vec<(f64, u8, u32)>) {
+    if alpha >= 1.0 && !any_over(strain, &m.spring_strain_limit) {
+        return;
+    }
+    for (sp, &x) in strain.iter().enumerate() {
+        let lim = m.spring_strain_limit[sp];
+        if !lim.is_finite() || m.spring_kind[sp] == SpringKind::Broken {
+            continue;
+        }
+        let v = triggered(&mut avg[sp], x, alpha);
+        if v > lim {
+            out.push(((v / lim).to_f64(), 0, sp as u32));
+        }
+    }
+}
+
+/// Appends `(load / limit, 1, particle)` for every free particle whose (averaged) load passes its limit (the same
+/// first sweep as [`spring_candidates`]).
+fn particle_candidates<R: Real>(m: &Model<R>, load: &[R], avg: &mut [R], alpha: f64, out: &mut Vec<(f64, u8, u32)>) {
+    if alpha >= 1.0 && !any_over(load, &m.particle_load_limit) {
+        return;
+    }
+    for (i, &x) in load.iter().enumerate() {
+        let lim = m.particle_load_limit[i];
+        if !lim.is_finite() || m.particle_inv_mass[i] == R::ZERO {
+            continue;
+        }
+        let v = triggered(&mut avg[i], x, alpha);
+        if v > lim {
+            out.push(((v / lim).to_f64(), 1, i as u32));
+        }
     }
 }
 
