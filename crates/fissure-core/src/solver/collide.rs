@@ -6,6 +6,45 @@ use super::*;
 const COLLIDE_BLOCK: usize = 32;
 /// Colliders a block keeps in its near list on the stack; with more colliders in the scene every block tests all.
 const COLLIDE_NEAR: usize = 64;
+/// Pushes of one particle recorded for the far colliders' check; past it, the particle takes the full resolve.
+const PUSHES: usize = 8;
+
+/// Resolves a particle at `(x0, v0)` against the colliders `ids` (indices into `prepared`/`colliders`), in order,
+/// sweeping until clear (a push out of one collider can land in another: a corner), at most 3 times; `None` if
+/// none touched it. `pushed` receives the positions after each push, its flag cleared if they overflow it.
+fn sweeps(
+    prepared: &[crate::collision::PreparedCollider],
+    colliders: &[crate::collision::Collider],
+    ids: &[u32],
+    x0: glam::Vec3,
+    v0: glam::Vec3,
+    pushed: &mut ([glam::Vec3; PUSHES], usize, bool),
+) -> Option<(glam::Vec3, glam::Vec3)> {
+    let (mut x, mut v) = (x0, v0);
+    let mut touched = false;
+    for _sweep in 0..3 {
+        let mut any = false;
+        for &c in ids {
+            let c = c as usize;
+            if let Some((x2, v2)) = prepared[c].resolve(&colliders[c], x, v) {
+                x = x2;
+                v = v2;
+                any = true;
+                if pushed.1 < PUSHES {
+                    pushed.0[pushed.1] = x;
+                    pushed.1 += 1;
+                } else {
+                    pushed.2 = false;
+                }
+            }
+        }
+        touched |= any;
+        if !any || colliders.len() == 1 {
+            break;
+        }
+    }
+    touched.then_some((x, v))
+}
 
 impl<R: Real> CpuSolver<R> {
     /// Resolves contacts; flags `blown` if a contact produced a non-finite state (a particle flung to ±1e300 by
@@ -19,31 +58,17 @@ impl<R: Real> CpuSolver<R> {
         self.colliders.extend(m.colliders.iter().map(|c| c.prepare(state.time)));
         let prepared = &self.colliders;
         let inv_mass = &m.particle_inv_mass;
-        // The full resolve of one particle: every collider in order, and since a push out of one collider can
-        // land in another (a corner), sweep until clear, at most 3 times.
-        let resolve_all = |x0: glam::Vec3, v0: glam::Vec3| -> Option<(glam::Vec3, glam::Vec3)> {
-            let (mut x, mut v) = (x0, v0);
-            let mut touched = false;
-            for _sweep in 0..3 {
-                let mut any = false;
-                for (p, c) in prepared.iter().zip(&m.colliders) {
-                    if let Some((x2, v2)) = p.resolve(c, x, v) {
-                        x = x2;
-                        v = v2;
-                        any = true;
-                    }
-                }
-                touched |= any;
-                if !any || m.colliders.len() == 1 {
-                    break;
-                }
-            }
-            touched.then_some((x, v))
-        };
+        let colliders = &m.colliders;
+        if self.collider_ids.len() != prepared.len() {
+            self.collider_ids = (0..prepared.len() as u32).collect();
+        }
+        let every = &self.collider_ids[..];
         par::chunks2(&mut state.particle_q, &mut state.particle_qd, |start, qs, vs| {
-            // Per block of particles, the colliders its bounding box can reach; a particle that none of them
-            // touches is clear of all (the others reject its block), and one that is touched takes the full
-            // resolve from its original state: the same result as testing every collider, bit for bit.
+            // Per block of particles, the colliders its bounding box can reach. A particle is resolved against
+            // those alone, and the others are then checked at every position it was pushed to: when none of them
+            // reaches any (the usual case), the full resolve against every collider would have made the same pushes
+            // in the same order (a far collider's test depends on the position alone, and fails at all of them),
+            // so the result is the same bit for bit; otherwise the particle takes the full resolve.
             let mut near = [0u32; COLLIDE_NEAR];
             let mut bad = false;
             for (b, (qb, vb)) in qs.chunks_mut(COLLIDE_BLOCK).zip(vs.chunks_mut(COLLIDE_BLOCK)).enumerate() {
@@ -66,28 +91,30 @@ impl<R: Real> CpuSolver<R> {
                     if count == 0 {
                         continue;
                     }
-                    // Every collider is near: the pre-test would only repeat the full resolve's first sweep.
                     all = count == prepared.len();
                 }
+                let near: &[u32] = if all { every } else { &near[..count] };
                 for k in 0..qb.len() {
                     if inv_mass[p0 + k] == R::ZERO {
                         continue;
                     }
                     let (x, v) = (qb[k].to_vec3(), vb[k].to_vec3());
+                    let mut pushed = ([glam::Vec3::ZERO; PUSHES], 0usize, true);
+                    let Some(mut out) = sweeps(prepared, colliders, near, x, v, &mut pushed) else { continue };
                     if !all {
-                        let hit = near[..count].iter().any(|&c| {
-                            let c = c as usize;
-                            prepared[c].resolve(&m.colliders[c], x, v).is_some()
-                        });
-                        if !hit {
-                            continue;
+                        let (list, n, complete) = pushed;
+                        let far_clear = complete
+                            && (0..prepared.len()).filter(|c| !near.contains(&(*c as u32))).all(|c| {
+                                list[..n].iter().all(|&xp| prepared[c].resolve(&colliders[c], xp, v).is_none())
+                            });
+                        if !far_clear {
+                            out = sweeps(prepared, colliders, every, x, v, &mut pushed)
+                                .expect("a particle a near collider touches is touched by the full resolve");
                         }
                     }
-                    if let Some((x, v)) = resolve_all(x, v) {
-                        qb[k] = R::V::from_vec3(x);
-                        vb[k] = R::V::from_vec3(v);
-                        bad |= !(qb[k].is_finite() && vb[k].is_finite());
-                    }
+                    qb[k] = R::V::from_vec3(out.0);
+                    vb[k] = R::V::from_vec3(out.1);
+                    bad |= !(qb[k].is_finite() && vb[k].is_finite());
                 }
             }
             if bad {

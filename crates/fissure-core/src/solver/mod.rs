@@ -181,6 +181,8 @@ pub struct CpuSolver<R: Real = f32> {
     v_pred: Vec<R::V>,
     /// Colliders prepared for the current step (reused).
     colliders: Vec<crate::collision::PreparedCollider>,
+    /// `0..colliders.len()`: the collision pass's list of every collider (kept, so a step allocates nothing).
+    collider_ids: Vec<u32>,
     timers: StageTimers,
     /// Statistics of the last implicit solve.
     pub cg: CgStats,
