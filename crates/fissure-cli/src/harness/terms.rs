@@ -75,15 +75,18 @@ pub fn run(r: &mut Report) -> Result<(), String> {
     let _ = writeln!(
         r.md,
         "\n### Cost per term\n\nThe same body with one term added at a time: symplectic Euler, f32, all threads, \
-         {steps} steps after 10 warm-up steps, µs per step in total and per stage (`StageTimers`; fracture is the \
-         `Fracture::apply` scan). Cloth: {0}² particles at 1 cm, 1 g each, default cloth springs. Ball: icosphere \
+         {steps} steps after 10 warm-up steps, best of 3 runs, µs per step in total and per stage (`StageTimers`; \
+         fracture is the fracture pass and the solver's load sums outside the gather); `added` is what the term adds \
+         to the whole step ÷ the plain body's spring pass (issue 15's goals: wind, pressure ≤ 1, colliders ≤ 0.3, \
+         fracture ≤ 0.2). Cloth: {0}² particles at 1 cm, 1 g each, default cloth springs. Ball: icosphere \
          of {1} vertices, membrane 2500 N/m. CSV: `terms.csv`.\n\n\
-         | body | terms | µs/step | springs | surface | integrate | collide | fracture |\n|---|---|---|---|---|---|---|---|",
+         | body | terms | µs/step | springs | surface | integrate | collide | fracture | added |\n|---|---|---|---|---|---|---|---|---|",
         if r.quick { 32 } else { 128 },
         if r.quick { 642 } else { 10242 },
     );
     let mut rows = Vec::new();
     for body in ["cloth", "ball"] {
+        let mut plain = (0.0, 1.0);
         for term in [Term::Plain, Term::Pressure, Term::Wind, Term::Colliders, Term::Fracture] {
             if body == "cloth" && term == Term::Pressure {
                 continue; // an open sheet holds no gas
@@ -95,25 +98,38 @@ pub fn run(r: &mut Report) -> Result<(), String> {
             for _ in 0..10 {
                 world.step(dt).map_err(|e| e.to_string())?;
             }
-            world.reset_timers();
-            let t = Instant::now();
-            for _ in 0..steps {
-                world.step(dt).map_err(|e| e.to_string())?;
+            // Best of three runs: the machine's neighbours add time, never remove it.
+            let (mut total, mut tm) = (f64::INFINITY, world.timers());
+            for _ in 0..3 {
+                world.reset_timers();
+                let t = Instant::now();
+                for _ in 0..steps {
+                    world.step(dt).map_err(|e| e.to_string())?;
+                }
+                let run = t.elapsed().as_secs_f64() / steps as f64 * 1e6;
+                if run < total {
+                    (total, tm) = (run, world.timers());
+                }
             }
-            let total = t.elapsed().as_secs_f64() / steps as f64 * 1e6;
-            let tm = world.timers();
             let per = |st: Stage| tm.time(st).as_secs_f64() / steps as f64 * 1e6;
             let frac = per(Stage::Fracture);
+            if term == Term::Plain {
+                plain = (total, per(Stage::Springs));
+            }
+            // What the term adds to the whole step (its own stage, and any work it puts into the others: the
+            // fracture measures ride in the spring and integrate passes, the pressure shares in the gather).
+            let added = (total - plain.0) / plain.1.max(1e-9);
             let _ = writeln!(
                 r.md,
-                "| {body} | {} | {} | {} | {} | {} | {} | {} |",
+                "| {body} | {} | {} | {} | {} | {} | {} | {} | {} |",
                 term.name(),
                 sig3(total),
                 sig3(per(Stage::Springs)),
                 sig3(per(Stage::Surface)),
                 sig3(per(Stage::Integrate)),
                 sig3(per(Stage::Collide)),
-                sig3(frac)
+                sig3(frac),
+                if term == Term::Plain { "—".to_string() } else { format!("{added:.2}") }
             );
             rows.push(format!(
                 "{body},{},{total:e},{:e},{:e},{:e},{:e},{frac:e}",
@@ -145,19 +161,18 @@ pub fn run(r: &mut Report) -> Result<(), String> {
                     format!("{fracture_calls} fracture calls"),
                 );
             }
-            // Issue 15's goals: each present term at most a fraction of the spring pass of the same run.
+            // Issue 15's goals: what each present term adds to the step, at most a fraction of the spring pass.
             let goal = match term {
                 Term::Plain => None,
-                Term::Pressure | Term::Wind => Some((Stage::Surface, 1.0)),
-                Term::Colliders => Some((Stage::Collide, 0.3)),
-                Term::Fracture => Some((Stage::Fracture, 0.2)),
+                Term::Pressure | Term::Wind => Some(1.0),
+                Term::Colliders => Some(0.3),
+                Term::Fracture => Some(0.2),
             };
-            if let Some((stage, limit)) = goal {
-                let ratio = per(stage) / per(Stage::Springs).max(1e-9);
+            if let Some(limit) = goal {
                 r.target(
-                    format!("{body} {}: {} ≤ {limit}× the spring pass", term.name(), stage.name()),
-                    ratio <= limit,
-                    format!("{ratio:.2}×"),
+                    format!("{body} {}: adds ≤ {limit}× the spring pass", term.name()),
+                    added <= limit,
+                    format!("{added:.2}× ({} µs on {} µs of springs)", sig3(total - plain.0), sig3(plain.1)),
                 );
             }
         }

@@ -25,8 +25,14 @@ pub(crate) struct ForceScratch<R: Real> {
     pub runs: bool,
     /// `(x1 - x0) × (x2 - x0)` of each triangle \[m^2\].
     pub tri_cross: Vec<R::V>,
-    /// Force on each corner of each triangle (pressure + wind share) \[N\].
+    /// Force on each corner of each triangle (pressure + wind share) \[N\], written only with wind: without it a
+    /// corner's force is its pressure share, which [`corner`] forms from the cross vector where it is summed (one
+    /// pass over the triangles fewer, the same bits).
     pub tri_f: Vec<R::V>,
+    /// Whether `tri_f` holds this evaluation's corner forces (wind), else see [`corner`].
+    pub tri_f_written: bool,
+    /// `P / 6` of each body \[Pa\]: a corner's pressure share is `cross · P / 6`.
+    pub body_p6: Vec<R>,
     /// Per-chunk, per-body partial sums of `6 V`.
     pub vol_partials: Vec<R>,
     /// Volume of each body \[m^3\].
@@ -63,7 +69,8 @@ impl<R: Real> ForceScratch<R> {
         let surface = m.has_pressure() || m.has_wind();
         let nt = if surface { m.tri_count() } else { 0 };
         self.tri_cross.resize(nt, R::V::ZERO);
-        self.tri_f.resize(nt, R::V::ZERO);
+        self.tri_f.resize(if m.has_wind() { nt } else { 0 }, R::V::ZERO);
+        self.body_p6.resize(m.body_count(), R::ZERO);
         self.body_volume.resize(m.body_count(), R::ZERO);
         self.body_pressure.resize(m.body_count(), R::ZERO);
         self.vol_partials.resize(nt.div_ceil(par::CHUNK).max(1) * m.body_count(), R::ZERO);
@@ -160,22 +167,29 @@ impl<R: Real> ForceScratch<R> {
             let i = i as usize;
             self.cap_f[i] = self.cap_g[i] * self.body_pressure[m.particle_body[i] as usize];
         }
-        // Pass B: per-corner force of each triangle.
+        // Pass B (wind only): per-corner force of each triangle. Without wind the gathers form the pressure share.
+        let sixth = R::from_f64(1.0 / 6.0);
+        for b in 0..nb {
+            self.body_p6[b] = self.body_pressure[b] * sixth;
+        }
         let wind = if m.has_wind() { m.wind.as_ref() } else { None };
-        let rho_half = R::from_f64(0.5 * wind.map_or(0.0, |w| w.air_density));
-        let wind = wind.map(|w| w.prepare::<R>(time));
+        self.tri_f_written = wind.is_some();
+        let Some(wind) = wind else { return };
+        let rho_half = R::from_f64(0.5 * wind.air_density);
+        let wind = wind.prepare::<R>(time);
         let body_pressure = &self.body_pressure;
         let tri_cross = &self.tri_cross;
         par::chunks(&mut self.tri_f, |start, out| {
-            if let Some(w) = &wind {
-                return wind::wind_chunk(m, q, qd, tri_cross, body_pressure, w, rho_half, start, out);
-            }
-            for (k, f) in out.iter_mut().enumerate() {
-                let t = start + k;
-                *f = pressure::corner_force(tri_cross[t], body_pressure[m.tri_body[t] as usize]);
-            }
+            wind::wind_chunk(m, q, qd, tri_cross, body_pressure, &wind, rho_half, start, out)
         });
     }
+}
+
+/// The force on each corner of triangle `t` from this evaluation \[N\]: `tri_f[t]` with wind, else the pressure
+/// share `cross · P / 6` ([`pressure::corner_force`], the same bits).
+#[inline(always)]
+pub(crate) fn corner<R: Real>(m: &Model<R>, s: &ForceScratch<R>, t: usize) -> R::V {
+    if s.tri_f_written { s.tri_f[t] } else { s.tri_cross[t] * s.body_p6[m.tri_body[t] as usize] }
 }
 
 /// The fracture load of particle `i` \[N\] (0 without a finite load limit): `|Σ ± spring_el + Σ pressure
@@ -207,7 +221,7 @@ pub(crate) fn particle_force<R: Real>(m: &Model<R>, s: &ForceScratch<R>, surface
     }
     if surface {
         for &t in m.particle_tris.row(i) {
-            f += s.tri_f[t as usize];
+            f += corner(m, s, t as usize);
         }
         if !s.cap_f.is_empty() {
             f += s.cap_f[i];

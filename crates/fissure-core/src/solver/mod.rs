@@ -20,7 +20,7 @@
 
 use crate::error::StepError;
 use crate::forces::spring::{implicit_coefficients, run_block_dispatch};
-use crate::forces::{ForceScratch, particle_force, pressure};
+use crate::forces::{ForceScratch, corner, particle_force, pressure};
 use crate::fracture::TopologyDelta;
 use crate::model::{DampingModel, Model, State};
 use crate::par;
@@ -372,7 +372,7 @@ impl<R: Real> CpuSolver<R> {
                 }
                 if surface {
                     for &tt in m.particle_tris.row(i) {
-                        let tf = f.tri_f[tt as usize];
+                        let tf = corner(m, f, tt as usize);
                         ft += tf;
                         if gas {
                             fe += tf;
@@ -433,7 +433,7 @@ impl<R: Real> CpuSolver<R> {
                 let mut force = m.gravity * m.particle_mass[i] + fs[k];
                 if surface {
                     for &tt in m.particle_tris.row(i) {
-                        force += f.tri_f[tt as usize];
+                        force += corner(m, f, tt as usize);
                     }
                     if !f.cap_f.is_empty() {
                         force += f.cap_f[i];
