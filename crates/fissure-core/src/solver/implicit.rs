@@ -11,7 +11,8 @@ pub(super) struct ImplicitScratch<R: Real> {
     pub(super) p: Vec<R::V>,
     pub(super) ap: Vec<R::V>,
     pub(super) dv: Vec<R::V>,
-    pub(super) diag: Vec<R::V>,
+    /// Rows of the inverse 3×3 diagonal block of each particle (the block-Jacobi preconditioner).
+    pub(super) block: Vec<[R::V; 3]>,
     pub(super) g: Vec<R::V>,
     /// Unit direction of each spring.
     pub(super) u: Vec<R::V>,
@@ -118,33 +119,44 @@ impl<R: Real> CpuSolver<R> {
                 }
             });
         }
-        // Jacobi preconditioner: the inverse of A's diagonal.
+        // Block-Jacobi preconditioner: the inverse of A's 3×3 diagonal block of each particle (its mass, its
+        // springs' blocks `iso I + (axial - iso) u uᵀ` and the gas's `c g gᵀ`), rows stored.
         {
             let (u, coef, g, bc) = (&im.u, &im.coef, &im.g, &im.body_c);
-            par::chunks(&mut im.diag, |start, ds| {
+            par::chunks(&mut im.block, |start, ds| {
                 for k in 0..ds.len() {
                     let i = start + k;
                     // Pinned particles are filtered out of the solve: a zero preconditioner keeps them at dv = 0
                     // (and avoids 0 · ∞ when a massless anchor has no stiffness in some direction).
                     if m.particle_inv_mass[i] == R::ZERO {
-                        ds[k] = R::V::ZERO;
+                        ds[k] = [R::V::ZERO; 3];
                         continue;
                     }
-                    let mut d = R::V::new(R::ONE, R::ONE, R::ONE) * m.particle_mass[i];
+                    let mi = m.particle_mass[i];
+                    // Symmetric: a[0][0], a[1][1], a[2][2], a[0][1], a[0][2], a[1][2].
+                    let mut a = [mi, mi, mi, R::ZERO, R::ZERO, R::ZERO];
+                    let mut add = |w: R::V, c: R, iso: R| {
+                        let [x, y, z] = w.to_array();
+                        a[0] += iso + c * x * x;
+                        a[1] += iso + c * y * y;
+                        a[2] += iso + c * z * z;
+                        a[3] += c * x * y;
+                        a[4] += c * x * z;
+                        a[5] += c * y * z;
+                    };
                     for &e in m.particle_springs.row(i) {
                         let sidx = (e >> 1) as usize;
                         let [_, _, iso, axial] = coef[sidx];
-                        let uu = u[sidx].mul_elem(u[sidx]);
-                        d += R::V::new(iso, iso, iso) + uu * (axial - iso);
+                        add(u[sidx], axial - iso, iso);
                     }
                     if pressure {
                         let body = m.particle_body[i];
                         if body != NONE {
-                            d += g[i].mul_elem(g[i]) * bc[body as usize];
+                            add(g[i], bc[body as usize], R::ZERO);
                         }
                     }
-                    ds[k] = d.recip();
-                    debug_assert!(ds[k].is_finite(), "free particle {i} has a zero diagonal");
+                    ds[k] = inverse_sym3::<R>(a);
+                    debug_assert!(ds[k].iter().all(|r| r.is_finite()), "free particle {i} has a singular block");
                 }
             });
         }
@@ -189,7 +201,7 @@ impl<R: Real> CpuSolver<R> {
             return Ok(());
         }
         let tol2 = R::from_f64(self.config.cg_tolerance * self.config.cg_tolerance) * bnorm2;
-        precondition::<R>(&im.r, &im.diag, &mut im.z);
+        precondition::<R>(&im.r, &im.block, &mut im.z);
         im.p.copy_from_slice(&im.z);
         let mut rz = par::sum(n, &mut im.partials, |i| im.r[i].dot(im.z[i]));
         let mut rr = bnorm2;
@@ -215,7 +227,7 @@ impl<R: Real> CpuSolver<R> {
                     }
                 });
             }
-            precondition::<R>(&im.r, &im.diag, &mut im.z);
+            precondition::<R>(&im.r, &im.block, &mut im.z);
             let rz_new = par::sum(n, &mut im.partials, |i| im.r[i].dot(im.z[i]));
             rr = par::sum(n, &mut im.partials, |i| im.r[i].dot(im.r[i]));
             let beta = rz_new / rz;
@@ -296,10 +308,28 @@ fn body_dots<R: Real>(m: &Model<R>, g: &[R::V], p: &[R::V], partials: &mut Vec<R
     }
 }
 
-fn precondition<R: Real>(r: &[R::V], inv_diag: &[R::V], z: &mut [R::V]) {
+fn precondition<R: Real>(r: &[R::V], block: &[[R::V; 3]], z: &mut [R::V]) {
     par::chunks(z, |start, zs| {
         for k in 0..zs.len() {
-            zs[k] = r[start + k].mul_elem(inv_diag[start + k]);
+            let (b, x) = (&block[start + k], r[start + k]);
+            zs[k] = R::V::new(b[0].dot(x), b[1].dot(x), b[2].dot(x));
         }
     });
+}
+
+/// The inverse of the symmetric 3×3 matrix `[a00, a11, a22, a01, a02, a12]`, as rows (adjugate over determinant).
+fn inverse_sym3<R: Real>(a: [R; 6]) -> [R::V; 3] {
+    let [a00, a11, a22, a01, a02, a12] = a;
+    let c00 = a11 * a22 - a12 * a12;
+    let c01 = a02 * a12 - a01 * a22;
+    let c02 = a01 * a12 - a02 * a11;
+    let c11 = a00 * a22 - a02 * a02;
+    let c12 = a01 * a02 - a00 * a12;
+    let c22 = a00 * a11 - a01 * a01;
+    let inv = R::ONE / (a00 * c00 + a01 * c01 + a02 * c02);
+    [
+        R::V::new(c00 * inv, c01 * inv, c02 * inv),
+        R::V::new(c01 * inv, c11 * inv, c12 * inv),
+        R::V::new(c02 * inv, c12 * inv, c22 * inv),
+    ]
 }

@@ -245,9 +245,10 @@ impl<R: Real> CpuSolver<R> {
         let imp = self.config.integrator == Integrator::ImplicitEuler;
         let ni = if imp { n } else { 0 };
         let i = &mut self.imp;
-        for v in [&mut i.r, &mut i.z, &mut i.p, &mut i.ap, &mut i.dv, &mut i.diag] {
+        for v in [&mut i.r, &mut i.z, &mut i.p, &mut i.ap, &mut i.dv] {
             v.resize(ni, z);
         }
+        i.block.resize(ni, [z; 3]);
         i.g.resize(if imp && m.has_pressure() { n } else { 0 }, z);
         i.u.resize(if imp { m.spring_count() } else { 0 }, z);
         i.coef.resize(if imp { m.spring_count() } else { 0 }, [R::ZERO; 4]);
