@@ -281,7 +281,7 @@ pub struct Fracture<R: Real = f32> {
     spring_force: Vec<DVec3>,
     /// Each spring's strain and each particle's load (the scan without a solver's measures).
     strain: Vec<R>,
-    load: Vec<f64>,
+    load: Vec<R>,
     /// Per-particle stamp: `step_gen` if touched this step.
     touched: Vec<u32>,
     step_gen: u32,

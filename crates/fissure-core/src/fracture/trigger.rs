@@ -58,12 +58,13 @@ impl<R: Real> Fracture<R> {
                 });
             }
             let mut load = std::mem::take(&mut self.load);
-            load.resize(n, 0.0);
+            load.resize(n, R::ZERO);
             let (springs, tris) = (&self.spring_force, &self.tri_force);
             par::chunks(&mut load, |start, out| {
                 for (k, l) in out.iter_mut().enumerate() {
                     let i = start + k;
                     if !m.particle_load_limit[i].is_finite() || m.particle_inv_mass[i] == R::ZERO {
+                        *l = R::ZERO;
                         continue;
                     }
                     let mut f = crate::forces::spring_gather::<f64>(DVec3::ZERO, m.particle_springs.row(i), springs);
@@ -72,11 +73,10 @@ impl<R: Real> Fracture<R> {
                             f += tris[t as usize];
                         }
                     }
-                    *l = f.length();
+                    *l = R::from_f64(f.length());
                 }
             });
-            let load_r: Vec<R> = load.iter().map(|&l| R::from_f64(l)).collect();
-            particle_candidates(m, &load_r, &mut self.particle_avg, alpha, &mut self.candidates);
+            particle_candidates(m, &load, &mut self.particle_avg, alpha, &mut self.candidates);
             self.load = load;
         }
         self.candidates.sort_by(|a, b| b.0.total_cmp(&a.0).then(a.1.cmp(&b.1)).then(a.2.cmp(&b.2)));
@@ -111,38 +111,40 @@ impl<R: Real> Fracture<R> {
 }
 
 /// Appends `(strain / limit, 0, spring)` for every unbroken spring whose (averaged) strain passes its limit.
-/// For the instantaneous trigger one branch-free sweep (it vectorises) first finds whether any does at all, the
-/// usual answer being no.
 fn spring_candidates<R: Real>(m: &Model<R>, strain: &[R], avg: &mut [R], alpha: f64, out: &mut Vec<(f64, u8, u32)>) {
-    if alpha >= 1.0 && !any_over(strain, &m.spring_strain_limit) {
-        return;
-    }
-    for (sp, &x) in strain.iter().enumerate() {
-        let lim = m.spring_strain_limit[sp];
-        if !lim.is_finite() || m.spring_kind[sp] == SpringKind::Broken {
-            continue;
-        }
-        let v = triggered(&mut avg[sp], x, alpha);
-        if v > lim {
-            out.push(((v / lim).to_f64(), 0, sp as u32));
-        }
-    }
+    let skip = |sp: usize| m.spring_kind[sp] == SpringKind::Broken;
+    candidates(strain, &m.spring_strain_limit, avg, alpha, 0, skip, out);
 }
 
-/// Appends `(load / limit, 1, particle)` for every free particle whose (averaged) load passes its limit (the same
-/// first sweep as [`spring_candidates`]).
+/// Appends `(load / limit, 1, particle)` for every free particle whose (averaged) load passes its limit.
 fn particle_candidates<R: Real>(m: &Model<R>, load: &[R], avg: &mut [R], alpha: f64, out: &mut Vec<(f64, u8, u32)>) {
-    if alpha >= 1.0 && !any_over(load, &m.particle_load_limit) {
+    let skip = |i: usize| m.particle_inv_mass[i] == R::ZERO;
+    candidates(load, &m.particle_load_limit, avg, alpha, 1, skip, out);
+}
+
+/// Appends `(value / limit, kind, k)` for every `k` with a finite limit, not skipped, whose (averaged) value passes
+/// it. For the instantaneous trigger one branch-free sweep (it vectorises) first finds whether any value passes
+/// at all, the usual answer being no.
+fn candidates<R: Real>(
+    values: &[R],
+    limits: &[R],
+    avg: &mut [R],
+    alpha: f64,
+    kind: u8,
+    skip: impl Fn(usize) -> bool,
+    out: &mut Vec<(f64, u8, u32)>,
+) {
+    if alpha >= 1.0 && !any_over(values, limits) {
         return;
     }
-    for (i, &x) in load.iter().enumerate() {
-        let lim = m.particle_load_limit[i];
-        if !lim.is_finite() || m.particle_inv_mass[i] == R::ZERO {
+    for (k, &x) in values.iter().enumerate() {
+        let lim = limits[k];
+        if !lim.is_finite() || skip(k) {
             continue;
         }
-        let v = triggered(&mut avg[i], x, alpha);
+        let v = triggered(&mut avg[k], x, alpha);
         if v > lim {
-            out.push(((v / lim).to_f64(), 1, i as u32));
+            out.push(((v / lim).to_f64(), kind, k as u32));
         }
     }
 }

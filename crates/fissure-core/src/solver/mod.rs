@@ -32,12 +32,14 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::Instant;
 
 mod collide;
+mod explicit;
 mod implicit;
 
 /// Steps between two estimates of the stability bound while the substep guard is on.
 const BOUND_REFRESH: usize = 256;
 
 pub use crate::integrator::Integrator;
+use explicit::Rk4Scratch;
 use implicit::ImplicitScratch;
 
 /// Solver settings.
@@ -204,14 +206,6 @@ pub struct CpuSolver<R: Real = f32> {
     loads_pending: bool,
 }
 
-#[derive(Clone, Debug, Default)]
-struct Rk4Scratch<R: Real> {
-    xt: Vec<R::V>,
-    vt: Vec<R::V>,
-    ax: Vec<R::V>,
-    av: Vec<R::V>,
-}
-
 impl<R: Real> CpuSolver<R> {
     /// A solver with `config`.
     pub fn new(config: SolverConfig) -> Self {
@@ -308,266 +302,6 @@ impl<R: Real> CpuSolver<R> {
         .then_some(crate::fracture::Measures { strain: &f.strain, load: &f.load, volume: &f.body_volume })
     }
 
-    fn symplectic_euler(&mut self, m: &Model<R>, s: &mut State<R>, dt: R, blown: &AtomicBool) {
-        if self.f.runs {
-            return self.symplectic_euler_runs(m, s, dt, blown);
-        }
-        // Without wind a triangle's corner force is its pressure share alone, so a measuring step sums each
-        // particle's fracture load in this gather (one walk of its rows for both sums, the same bits as the load
-        // pass) instead of in a pass of its own.
-        self.fuse_loads = !m.has_wind();
-        let surface = self.forces(m, &s.particle_q, &s.particle_qd, s.time);
-        if std::mem::take(&mut self.loads_pending) {
-            return self.symplectic_euler_with_loads(m, s, dt, blown, surface);
-        }
-        let t = Instant::now();
-        let f = &self.f;
-        par::chunks2(&mut s.particle_q, &mut s.particle_qd, |start, qs, vs| {
-            let mut bad = false;
-            for k in 0..qs.len() {
-                let i = start + k;
-                let w = m.particle_inv_mass[i];
-                if w == R::ZERO {
-                    continue;
-                }
-                vs[k] += particle_force(m, f, surface, i) * (w * dt);
-                qs[k] += vs[k] * dt;
-                bad |= !(vs[k].is_finite() && qs[k].is_finite());
-            }
-            if bad {
-                blown.store(true, Ordering::Relaxed);
-            }
-        });
-        self.timers.add(Stage::Integrate, t);
-    }
-
-    /// [`CpuSolver::symplectic_euler`]'s update with the fracture loads summed in the same walk of each particle's
-    /// rows (see there; the forces are `particle_force`'s, the loads `load_of`'s, bit for bit).
-    fn symplectic_euler_with_loads(
-        &mut self,
-        m: &Model<R>,
-        s: &mut State<R>,
-        dt: R,
-        blown: &AtomicBool,
-        surface: bool,
-    ) {
-        let t = Instant::now();
-        let mut load = std::mem::take(&mut self.f.load);
-        let f = &self.f;
-        let gas = surface && m.has_pressure();
-        par::chunks3(&mut s.particle_q, &mut s.particle_qd, &mut load, |start, qs, vs, ls| {
-            let mut bad = false;
-            for k in 0..qs.len() {
-                let i = start + k;
-                let mut ft = m.gravity * m.particle_mass[i];
-                let mut fe = R::V::ZERO;
-                for &e in m.particle_springs.row(i) {
-                    let (sf, se) = (f.spring_f[(e >> 1) as usize], f.spring_el[(e >> 1) as usize]);
-                    if e & 1 == 0 {
-                        ft += sf;
-                        fe += se;
-                    } else {
-                        ft -= sf;
-                        fe -= se;
-                    }
-                }
-                if surface {
-                    for &tt in m.particle_tris.row(i) {
-                        let tf = corner(m, f, tt as usize);
-                        ft += tf;
-                        if gas {
-                            fe += tf;
-                        }
-                    }
-                    if !f.cap_f.is_empty() {
-                        ft += f.cap_f[i];
-                    }
-                }
-                ls[k] = if m.particle_load_limit[i].is_finite() { fe.length() } else { R::ZERO };
-                let w = m.particle_inv_mass[i];
-                if w == R::ZERO {
-                    continue;
-                }
-                vs[k] += ft * (w * dt);
-                qs[k] += vs[k] * dt;
-                bad |= !(vs[k].is_finite() && qs[k].is_finite());
-            }
-            if bad {
-                blown.store(true, Ordering::Relaxed);
-            }
-        });
-        self.f.load = load;
-        self.timers.add(Stage::Integrate, t);
-    }
-
-    /// Symplectic Euler fused with the spring-run kernel: each block of particles sums its spring forces and
-    /// immediately updates its own particles, writing into the second position/velocity buffers (other blocks
-    /// still read the old positions of their neighbours), which are then swapped with the state's. One pass over
-    /// the particles instead of two.
-    fn symplectic_euler_runs(&mut self, m: &Model<R>, s: &mut State<R>, dt: R, blown: &AtomicBool) {
-        let surface = m.has_pressure() || m.has_wind();
-        if surface {
-            let t = Instant::now();
-            self.f.surface(m, &s.particle_q, &s.particle_qd, s.time);
-            self.timers.add(Stage::Surface, t);
-        }
-        let t = Instant::now();
-        // Buffers sized by `ensure_sized`.
-        let (q, qd) = (&s.particle_q, &s.particle_qd);
-        let f = &self.f;
-        let projected = m.damping_model == DampingModel::Projected;
-        par::chunks3(&mut self.f_block, &mut self.q_next, &mut self.qd_next, |p0, fs, qs, vs| {
-            if projected {
-                run_block_dispatch::<R, true>(m, q, qd, p0, fs);
-            } else {
-                run_block_dispatch::<R, false>(m, q, qd, p0, fs);
-            }
-            let mut bad = false;
-            for k in 0..fs.len() {
-                let i = p0 + k;
-                let w = m.particle_inv_mass[i];
-                if w == R::ZERO {
-                    qs[k] = q[i];
-                    vs[k] = qd[i];
-                    continue;
-                }
-                let mut force = m.gravity * m.particle_mass[i] + fs[k];
-                if surface {
-                    for &tt in m.particle_tris.row(i) {
-                        force += corner(m, f, tt as usize);
-                    }
-                    if !f.cap_f.is_empty() {
-                        force += f.cap_f[i];
-                    }
-                }
-                let v = qd[i] + force * (w * dt);
-                vs[k] = v;
-                qs[k] = q[i] + v * dt;
-                bad |= !(v.is_finite() && qs[k].is_finite());
-            }
-            if bad {
-                blown.store(true, Ordering::Relaxed);
-            }
-        });
-        std::mem::swap(&mut s.particle_q, &mut self.q_next);
-        std::mem::swap(&mut s.particle_qd, &mut self.qd_next);
-        self.timers.add(Stage::Springs, t);
-    }
-
-    fn velocity_verlet(&mut self, m: &Model<R>, s: &mut State<R>, dt: R, blown: &AtomicBool) {
-        let half = dt * R::from_f64(0.5);
-        // Kick half a step, drift a whole step; keep `v_n + dt a_n` for the velocity-dependent forces of the second
-        // kick (see `Integrator::VelocityVerlet`).
-        let surface = self.forces(m, &s.particle_q, &s.particle_qd, s.time);
-        let t = Instant::now();
-        let f = &self.f;
-        let mut v_pred = std::mem::take(&mut self.v_pred);
-        par::chunks3(&mut s.particle_q, &mut s.particle_qd, &mut v_pred, |start, qs, vs, ps| {
-            let mut bad = false;
-            for k in 0..qs.len() {
-                let i = start + k;
-                let w = m.particle_inv_mass[i];
-                if w != R::ZERO {
-                    let a = particle_force(m, f, surface, i) * w;
-                    ps[k] = vs[k] + a * dt;
-                    vs[k] += a * half;
-                    qs[k] += vs[k] * dt;
-                    bad |= !qs[k].is_finite();
-                } else {
-                    ps[k] = vs[k];
-                }
-            }
-            if bad {
-                blown.store(true, Ordering::Relaxed);
-            }
-        });
-        self.timers.add(Stage::Integrate, t);
-        // Kick the second half with the forces at the new positions and the extrapolated velocities.
-        let surface = self.forces(m, &s.particle_q, &v_pred, s.time + dt.to_f64());
-        self.v_pred = v_pred;
-        let t = Instant::now();
-        let f = &self.f;
-        par::chunks(&mut s.particle_qd, |start, vs| {
-            let mut bad = false;
-            for k in 0..vs.len() {
-                let i = start + k;
-                let w = m.particle_inv_mass[i];
-                if w != R::ZERO {
-                    vs[k] += particle_force(m, f, surface, i) * (w * half);
-                    bad |= !vs[k].is_finite();
-                }
-            }
-            if bad {
-                blown.store(true, Ordering::Relaxed);
-            }
-        });
-        self.timers.add(Stage::Integrate, t);
-    }
-
-    fn rk4(&mut self, m: &Model<R>, s: &mut State<R>, dt: R, blown: &AtomicBool) {
-        let mut rk = std::mem::take(&mut self.rk);
-        rk.xt.copy_from_slice(&s.particle_q);
-        rk.vt.copy_from_slice(&s.particle_qd);
-        let weight = [1.0 / 6.0, 2.0 / 6.0, 2.0 / 6.0, 1.0 / 6.0].map(R::from_f64);
-        let c_next = [0.5, 0.5, 1.0].map(|c| R::from_f64(c) * dt);
-        let c_time = [0.0, 0.5, 0.5, 1.0];
-        for stage in 0..4 {
-            let surface = self.forces(m, &rk.xt, &rk.vt, s.time + c_time[stage] * dt.to_f64());
-            let t = Instant::now();
-            let f = &self.f;
-            let ws = weight[stage];
-            let first = stage == 0;
-            // Slopes of this stage: kx = stage velocity, kv = acceleration. Accumulate, then either set up the next
-            // stage or (last stage) apply the weighted sum to the state.
-            let slope = |i: usize, vt: R::V| -> (R::V, R::V) {
-                let w = m.particle_inv_mass[i];
-                if w == R::ZERO { (R::V::ZERO, R::V::ZERO) } else { (vt, particle_force(m, f, surface, i) * w) }
-            };
-            if stage < 3 {
-                let cn = c_next[stage];
-                let (x0, v0) = (&s.particle_q, &s.particle_qd);
-                par::chunks4(&mut rk.xt, &mut rk.vt, &mut rk.ax, &mut rk.av, |start, xs, vs, axs, avs| {
-                    for k in 0..xs.len() {
-                        let i = start + k;
-                        let (kx, kv) = slope(i, vs[k]);
-                        if first {
-                            axs[k] = kx * ws;
-                            avs[k] = kv * ws;
-                        } else {
-                            axs[k] += kx * ws;
-                            avs[k] += kv * ws;
-                        }
-                        xs[k] = x0[i] + kx * cn;
-                        vs[k] = v0[i] + kv * cn;
-                    }
-                });
-            } else {
-                let vt = &rk.vt;
-                par::chunks4(
-                    &mut s.particle_q,
-                    &mut s.particle_qd,
-                    &mut rk.ax,
-                    &mut rk.av,
-                    |start, xs, vs, axs, avs| {
-                        let mut bad = false;
-                        for k in 0..xs.len() {
-                            let i = start + k;
-                            let (kx, kv) = slope(i, vt[i]);
-                            xs[k] += (axs[k] + kx * ws) * dt;
-                            vs[k] += (avs[k] + kv * ws) * dt;
-                            bad |= !(vs[k].is_finite() && xs[k].is_finite());
-                        }
-                        if bad {
-                            blown.store(true, Ordering::Relaxed);
-                        }
-                    },
-                );
-            }
-            self.timers.add(Stage::Integrate, t);
-        }
-        self.rk = rk;
-    }
-
     /// The net force on every particle at `state` \[N\] (gravity, springs, pressure, wind; not collisions) into
     /// `out`, which must have one entry per particle. Pinned particles get their force too.
     pub fn compute_forces(&mut self, m: &Model<R>, state: &State<R>, out: &mut [R::V]) -> Result<(), StepError> {
@@ -598,8 +332,7 @@ impl<R: Real> CpuSolver<R> {
     /// The explicit stability bound of `m` at its initial positions (cached; see
     /// [`SolverConfig::substep_safety`]).
     pub fn stability_bound(&mut self, m: &Model<R>) -> StabilityBound {
-        let q0 = m.particle_q0.clone();
-        self.bound_at(m, &q0)
+        self.bound_at(m, &m.particle_q0)
     }
 
     /// The bound at positions `q`, cached until the model changes; re-estimated from the last stiffest mode (a
