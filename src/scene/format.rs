@@ -229,9 +229,30 @@ pub struct BodySection {
     /// Keep the gas when punctured.
     #[serde(default)]
     pub sealed: bool,
+    /// Collide with the other bodies in contact (and with pieces broken off this one). Default false.
+    #[serde(default)]
+    pub contact: bool,
+    /// Also collide with itself; implies `contact`. Default false.
+    #[serde(default)]
+    pub self_collision: bool,
+    /// Contact thickness \[m\]: the gap kept between surfaces. Default 0.2 × the mean edge length.
+    #[serde(default)]
+    pub thickness: Option<f64>,
+    /// Coulomb friction of contacts. Default 0.3.
+    #[serde(default)]
+    pub contact_friction: Option<f64>,
 }
 
 impl BodySection {
+    /// Contact settings: `None` unless `contact` or `self_collision` is set.
+    pub(super) fn contact(&self) -> Option<Contact> {
+        (self.contact || self.self_collision).then(|| Contact {
+            thickness: self.thickness,
+            self_collision: self.self_collision,
+            friction: self.contact_friction.unwrap_or(Contact::default().friction),
+        })
+    }
+
     /// How the body breaks: `None` unless a limit (or `sealed`) is given; a missing limit is infinite (off).
     pub(super) fn breakable(&self) -> Option<Breakable> {
         (self.strain_limit.is_some() || self.load_limit.is_some() || self.sealed).then(|| Breakable {

@@ -25,6 +25,10 @@
 //! pressure = 3000.0                 # \[Pa\]; 0: no gas
 //! strain_limit = 0.3                # optional: spring mode
 //! load_limit = 4.0                  # optional: core mode \[N\]
+//! contact = true                    # optional: collide with the other bodies in contact (default false)
+//! self_collision = false            # optional: and with itself (implies contact)
+//! thickness = 0.01                  # optional \[m\]: gap kept (default 0.2 × mean edge length)
+//! contact_friction = 0.3            # optional: Coulomb coefficient
 //!
 //! [[body]]                          # an open sheet: no gas
 //! shape = "cloth"
@@ -296,8 +300,10 @@ impl Scene {
                 fracture,
                 ..Default::default()
             };
-            b.add_soft_body(&mesh.translated(v3(body.position)), &opts)
+            let h = b
+                .add_soft_body(&mesh.translated(v3(body.position)), &opts)
                 .map_err(|e| self.core_error(&format!("body[{k}]"), e, BODY_KEYS))?;
+            self.set_contact(&mut b, k, body, h.index)?;
         }
         if let Some(h) = self.room_half_width {
             if !(h.is_finite() && h > 0.0) {
@@ -414,8 +420,33 @@ impl Scene {
         if body.velocity != [0.0; 3] {
             return Err(self.bad(key("velocity"), "a cloth starts at rest; remove the key"));
         }
-        b.add_cloth_grid(nx, ny, spacing, place, &opts)
+        let h = b
+            .add_cloth_grid(nx, ny, spacing, place, &opts)
             .map_err(|e| self.core_error(&format!("body[{k}]"), e, BODY_KEYS))?;
+        self.set_contact(b, k, body, h.index)
+    }
+
+    /// The body's `contact`, `self_collision`, `thickness` and `contact_friction` keys.
+    fn set_contact(&self, b: &mut ModelBuilder, k: usize, body: &BodySection, index: usize) -> Result<(), SceneError> {
+        let Some(c) = body.contact() else {
+            for (f, set) in
+                [("thickness", body.thickness.is_some()), ("contact_friction", body.contact_friction.is_some())]
+            {
+                if set {
+                    return Err(
+                        self.bad(format!("body[{k}].{f}"), "needs `contact = true` (or `self_collision = true`)")
+                    );
+                }
+            }
+            return Ok(());
+        };
+        b.set_contact(index, c).map_err(|e| {
+            self.core_error(
+                &format!("body[{k}]"),
+                e,
+                &[("contact.thickness", "thickness"), ("contact.friction", "contact_friction")],
+            )
+        })?;
         Ok(())
     }
 

@@ -5,6 +5,7 @@
 #![allow(clippy::needless_range_loop)]
 
 pub mod collision;
+pub mod contact;
 pub mod csr;
 pub mod error;
 pub mod forces;
@@ -21,6 +22,7 @@ pub mod topology;
 pub use forces::wind;
 
 pub use collision::Collider;
+pub use contact::Contact;
 pub use error::{MeshError, ModelError, StepError};
 pub use fracture::{
     Fracture, FractureConfig, FractureEvent, FractureKind, Measures, TopologyDelta, Trigger, check_invariants,
@@ -33,7 +35,7 @@ pub use model::{
 };
 pub use parry3d;
 pub use real::{Real, Vector3};
-pub use solver::{CgStats, CpuSolver, Integrator, Solver, SolverConfig};
+pub use solver::{CgStats, ContactStats, CpuSolver, Integrator, Solver, SolverConfig};
 pub use stability::{StabilityBound, max_stable_dt_1dof};
 pub use timers::{Stage, StageTimers};
 pub use wind::{Aero, WindField};

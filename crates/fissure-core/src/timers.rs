@@ -16,16 +16,25 @@ pub enum Stage {
     Integrate,
     /// Implicit Euler's linear solve (conjugate gradients).
     Solve,
-    /// Collision detection and response.
+    /// Collision detection and response against colliders.
     Collide,
+    /// Contact between surfaces (bodies against each other and themselves; see the `contact` module).
+    Contact,
     /// Fracture: strain and load checks, splits, openings and the gas leak (between steps).
     Fracture,
 }
 
 impl Stage {
     /// All stages in step order.
-    pub const ALL: [Stage; 6] =
-        [Stage::Springs, Stage::Surface, Stage::Integrate, Stage::Solve, Stage::Collide, Stage::Fracture];
+    pub const ALL: [Stage; 7] = [
+        Stage::Springs,
+        Stage::Surface,
+        Stage::Integrate,
+        Stage::Solve,
+        Stage::Collide,
+        Stage::Contact,
+        Stage::Fracture,
+    ];
 
     /// Lower-case name.
     pub fn name(self) -> &'static str {
@@ -35,6 +44,7 @@ impl Stage {
             Stage::Integrate => "integrate",
             Stage::Solve => "solve",
             Stage::Collide => "collide",
+            Stage::Contact => "contact",
             Stage::Fracture => "fracture",
         }
     }
@@ -43,8 +53,8 @@ impl Stage {
 /// Accumulated wall time and call count per [`Stage`], and steps taken.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct StageTimers {
-    time: [Duration; 6],
-    calls: [u64; 6],
+    time: [Duration; 7],
+    calls: [u64; 7],
     /// Steps accumulated.
     pub steps: u64,
     /// Total step time.

@@ -29,6 +29,7 @@ struct BodyDesc {
     aero: Aero,
     anchor: u32,
     fracture: Option<Breakable>,
+    contact: Option<crate::contact::Contact>,
 }
 
 impl Default for ModelBuilder {
@@ -107,6 +108,30 @@ impl ModelBuilder {
         c.validate()?;
         self.colliders.push(c);
         Ok(self)
+    }
+
+    /// Switches contact on for body `body` (an index from its [`BodyHandle`]): its surface then collides with
+    /// every other body in contact and, with `self_collision`, with itself (see the [`crate::contact`] module).
+    pub fn set_contact(&mut self, body: usize, contact: crate::contact::Contact) -> Result<&mut Self, ModelError> {
+        contact.check()?;
+        let b = self.bodies.get_mut(body).ok_or(ModelError::Parameter {
+            name: "contact body",
+            value: body as f64,
+            expected: "the index of a body added before",
+        })?;
+        b.contact = Some(contact);
+        Ok(self)
+    }
+
+    /// Contact thickness of body `b` \[m\]: its own, else the default from its mean edge length; 0 without contact.
+    fn contact_thickness(&self, b: usize) -> f64 {
+        match self.bodies[b].contact {
+            None => 0.0,
+            Some(c) => c.thickness.unwrap_or_else(|| {
+                let tris = self.tris.iter().zip(&self.tri_body).filter(|(_, tb)| **tb as usize == b).map(|(t, _)| *t);
+                crate::contact::default_thickness(&self.q, tris)
+            }),
+        }
     }
 
     /// Number of particles so far.
@@ -452,6 +477,7 @@ impl ModelBuilder {
             aero,
             anchor: base,
             fracture,
+            contact: None,
         });
         Ok(BodyHandle { index: body as usize, first_particle: base as usize, particle_count: n, first_triangle })
     }
@@ -516,6 +542,10 @@ impl ModelBuilder {
             body_lift: self.bodies.iter().map(|b| r(b.aero.lift)).collect(),
             body_anchor: self.bodies.iter().map(|b| b.anchor).collect(),
             body_sealed: self.bodies.iter().map(|b| b.fracture.is_some_and(|f| f.sealed)).collect(),
+            body_contact_thickness: (0..self.bodies.len()).map(|b| r(self.contact_thickness(b))).collect(),
+            body_self_contact: self.bodies.iter().map(|b| b.contact.is_some_and(|c| c.self_collision)).collect(),
+            body_contact_friction: self.bodies.iter().map(|b| r(b.contact.map_or(0.0, |c| c.friction))).collect(),
+            particle_origin: (0..n as u32).collect(),
             openings: Vec::new(),
             breakable: false,
             spring_runs: SpringRun::detect_if_useful(&self.springs.iter().map(|s| s.0).collect::<Vec<_>>()),

@@ -103,8 +103,8 @@ pub(crate) fn add_particle<R: Real>(
     body: u32,
     like: usize,
 ) -> u32 {
-    let load = m.particle_load_limit[like];
-    m.push_particle(ParticleRow { q0: x, qd0: v, mass, inv_mass, body, load_limit: load });
+    let (load, origin) = (m.particle_load_limit[like], m.particle_origin[like]);
+    m.push_particle(ParticleRow { q0: x, qd0: v, mass, inv_mass, body, load_limit: load, origin });
     m.particle_springs.push_row();
     m.particle_tris.push_row();
     s.particle_q.push(x);
@@ -252,6 +252,9 @@ pub(crate) fn new_body<R: Real>(m: &mut Model<R>, parent: u32, anchor: u32) -> u
         lift: m.body_lift[p],
         anchor,
         sealed: m.body_sealed[p],
+        contact_thickness: m.body_contact_thickness[p],
+        self_contact: m.body_self_contact[p],
+        contact_friction: m.body_contact_friction[p],
     });
     (m.body_count() - 1) as u32
 }

@@ -97,6 +97,9 @@ model_arrays! {
             /// Load \[N\] past which each particle breaks out as a core block (infinity: never); see the `fracture`
             /// module.
             particle_load_limit / load_limit: R,
+            /// The particle each one was split from by fracture (itself for the builder's particles): contact
+            /// ignores pairs of elements that share an origin (see the `contact` module).
+            particle_origin / origin: u32,
         }
         group SpringRow<R> ("One spring of a [`Model`]."), push_spring, reserve_springs {
             /// Spring ends `[i, j]`.
@@ -136,6 +139,13 @@ model_arrays! {
             body_anchor / anchor: u32,
             /// Whether each body keeps its gas when punctured.
             body_sealed / sealed: bool,
+            /// Contact thickness \[m\] of each body; 0: the body takes no part in contact (see the `contact`
+            /// module).
+            body_contact_thickness / contact_thickness: R,
+            /// Whether each body's surface also collides with itself.
+            body_self_contact / self_contact: bool,
+            /// Coulomb friction coefficient of each body's contacts.
+            body_contact_friction / contact_friction: R,
         }
         others {
         /// Openings of the gas bodies (none until something breaks).
@@ -238,6 +248,10 @@ impl<R: Real> Model<R> {
     /// True if there is wind and a body that feels it: only then is the aerodynamics pass run.
     pub fn has_wind(&self) -> bool {
         self.wind.is_some() && self.body_drag.iter().zip(&self.body_lift).any(|(&d, &l)| d != R::ZERO || l != R::ZERO)
+    }
+    /// True if some body takes part in contact: only then is the contact pass run.
+    pub fn has_contact(&self) -> bool {
+        self.body_contact_thickness.iter().any(|&h| h > R::ZERO)
     }
     /// True if there are colliders: only then is the collision pass run.
     pub fn has_colliders(&self) -> bool {

@@ -2,8 +2,8 @@
 //!
 //! A step reads top to bottom like the seed's algorithm (step 4): forces of the springs (4.2), the surface
 //! pass for volume, pressure and wind (4.3–4.4), the per-particle gather fused with the integrator's update
-//! (4.5), then collisions. A stage the model does not need is skipped entirely (no gas: no volume pass; no
-//! wind: no aerodynamics; no colliders: no collision pass; pinned particles are not integrated).
+//! (4.5), then collisions with colliders and contact between surfaces ([`crate::contact`]). A stage the model does not need is skipped entirely (no gas: no volume pass; no
+//! wind: no aerodynamics; no colliders: no collision pass; no body in contact: no contact pass; pinned particles are not integrated).
 //!
 //! | integrator | order | force evaluations / step | stability (undamped spring, `ω = √(k/m)`) |
 //! |---|---|---|---|
@@ -32,6 +32,7 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::Instant;
 
 mod collide;
+mod contact;
 mod explicit;
 mod implicit;
 
@@ -39,6 +40,7 @@ mod implicit;
 const BOUND_REFRESH: usize = 256;
 
 pub use crate::integrator::Integrator;
+pub use contact::ContactStats;
 use explicit::Rk4Scratch;
 use implicit::ImplicitScratch;
 
@@ -185,6 +187,8 @@ pub struct CpuSolver<R: Real = f32> {
     colliders: Vec<crate::collision::PreparedCollider>,
     /// `0..colliders.len()`: the collision pass's list of every collider (kept, so a step allocates nothing).
     collider_ids: Vec<u32>,
+    /// The contact pass's buffers (see the `contact` module).
+    ct: contact::ContactScratch<R>,
     timers: StageTimers,
     /// Statistics of the last implicit solve.
     pub cg: CgStats,
@@ -224,6 +228,7 @@ impl<R: Real> CpuSolver<R> {
         }
         self.sized_for = Some(key);
         self.bound = None;
+        self.ct.invalidate();
         self.f.resize(m, self.config.integrator == Integrator::ImplicitEuler);
         let n = m.particle_count();
         let fused = self.f.runs && self.config.integrator == Integrator::SymplecticEuler;
@@ -397,6 +402,9 @@ impl<R: Real> CpuSolver<R> {
         let h = R::from_f64(dt);
         self.measure_next = true;
         self.f.measured = false;
+        if m.has_contact() {
+            self.ct.x0.clone_from(&s.particle_q);
+        }
         match self.config.integrator {
             Integrator::SymplecticEuler => self.symplectic_euler(m, s, h, &blown),
             Integrator::VelocityVerlet => self.velocity_verlet(m, s, h, &blown),
@@ -405,6 +413,7 @@ impl<R: Real> CpuSolver<R> {
         }
         s.time += dt;
         self.collide(m, s, &blown);
+        self.contact(m, s, dt, &blown);
         self.timers.steps += 1;
         self.timers.total += t0.elapsed();
         if self.config.check_finite && blown.load(Ordering::Relaxed) {
@@ -439,6 +448,7 @@ impl<R: Real> Solver<R> for CpuSolver<R> {
             self.sized_for = None;
             self.bound = None;
             self.f.measured = false;
+            self.ct.invalidate();
         }
     }
 

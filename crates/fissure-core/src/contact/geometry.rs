@@ -1,0 +1,143 @@
+//! Closest points between a point and a triangle and between two segments (Ericson, *Real-Time Collision
+//! Detection*, 5.1.5 and 5.1.9), and an exact triangle–triangle crossing test on Shewchuk's adaptive `orient3d`.
+
+use glam::DVec3;
+
+/// Barycentric weights `[u, v, w]` (summing to 1) of the point of triangle `abc` closest to `p`.
+pub fn closest_on_triangle(p: DVec3, a: DVec3, b: DVec3, c: DVec3) -> [f64; 3] {
+    let (ab, ac, ap) = (b - a, c - a, p - a);
+    let (d1, d2) = (ab.dot(ap), ac.dot(ap));
+    if d1 <= 0.0 && d2 <= 0.0 {
+        return [1.0, 0.0, 0.0];
+    }
+    let bp = p - b;
+    let (d3, d4) = (ab.dot(bp), ac.dot(bp));
+    if d3 >= 0.0 && d4 <= d3 {
+        return [0.0, 1.0, 0.0];
+    }
+    let vc = d1 * d4 - d3 * d2;
+    if vc <= 0.0 && d1 >= 0.0 && d3 <= 0.0 {
+        let v = d1 / (d1 - d3);
+        return [1.0 - v, v, 0.0];
+    }
+    let cp = p - c;
+    let (d5, d6) = (ab.dot(cp), ac.dot(cp));
+    if d6 >= 0.0 && d5 <= d6 {
+        return [0.0, 0.0, 1.0];
+    }
+    let vb = d5 * d2 - d1 * d6;
+    if vb <= 0.0 && d2 >= 0.0 && d6 <= 0.0 {
+        let w = d2 / (d2 - d6);
+        return [1.0 - w, 0.0, w];
+    }
+    let va = d3 * d6 - d5 * d4;
+    if va <= 0.0 && d4 - d3 >= 0.0 && d5 - d6 >= 0.0 {
+        let w = (d4 - d3) / ((d4 - d3) + (d5 - d6));
+        return [0.0, 1.0 - w, w];
+    }
+    let denom = 1.0 / (va + vb + vc);
+    let (v, w) = (vb * denom, vc * denom);
+    [1.0 - v - w, v, w]
+}
+
+/// Parameters `(s, t)` in \[0, 1\] of the closest points `p1 + s (q1 - p1)` and `p2 + t (q2 - p2)` of two segments.
+pub fn closest_on_segments(p1: DVec3, q1: DVec3, p2: DVec3, q2: DVec3) -> (f64, f64) {
+    let (d1, d2, r) = (q1 - p1, q2 - p2, p1 - p2);
+    let (a, e, f) = (d1.dot(d1), d2.dot(d2), d2.dot(r));
+    let tiny = 1e-30;
+    if a <= tiny && e <= tiny {
+        return (0.0, 0.0);
+    }
+    if a <= tiny {
+        return (0.0, (f / e).clamp(0.0, 1.0));
+    }
+    let c = d1.dot(r);
+    if e <= tiny {
+        return ((-c / a).clamp(0.0, 1.0), 0.0);
+    }
+    let b = d1.dot(d2);
+    let denom = a * e - b * b;
+    let mut s = if denom > 0.0 { ((b * f - c * e) / denom).clamp(0.0, 1.0) } else { 0.0 };
+    let mut t = (b * s + f) / e;
+    if t < 0.0 {
+        t = 0.0;
+        s = (-c / a).clamp(0.0, 1.0);
+    } else if t > 1.0 {
+        t = 1.0;
+        s = ((b - c) / a).clamp(0.0, 1.0);
+    }
+    (s, t)
+}
+
+fn orient(a: DVec3, b: DVec3, c: DVec3, d: DVec3) -> f64 {
+    let p = |v: DVec3| robust::Coord3D { x: v.x, y: v.y, z: v.z };
+    robust::orient3d(p(a), p(b), p(c), p(d))
+}
+
+/// True if segment `pq` meets triangle `abc` (exact: the signs of Shewchuk's adaptive `orient3d`). A segment
+/// lying in the triangle's plane does not count (it cannot occur between moving surfaces except by accident).
+pub fn segment_meets_triangle(p: DVec3, q: DVec3, a: DVec3, b: DVec3, c: DVec3) -> bool {
+    let (o1, o2) = (orient(a, b, c, p), orient(a, b, c, q));
+    if (o1 > 0.0 && o2 > 0.0) || (o1 < 0.0 && o2 < 0.0) || (o1 == 0.0 && o2 == 0.0) {
+        return false;
+    }
+    let s = [orient(p, q, a, b), orient(p, q, b, c), orient(p, q, c, a)];
+    s.iter().all(|&x| x >= 0.0) || s.iter().all(|&x| x <= 0.0)
+}
+
+/// True if triangles `t` and `u` intersect: an edge of one meets the other (exact; for triangles that share no
+/// vertex, and up to coplanar overlaps, which the exact test leaves out).
+pub fn triangles_cross(t: [DVec3; 3], u: [DVec3; 3]) -> bool {
+    (0..3).any(|k| segment_meets_triangle(t[k], t[(k + 1) % 3], u[0], u[1], u[2]))
+        || (0..3).any(|k| segment_meets_triangle(u[k], u[(k + 1) % 3], t[0], t[1], t[2]))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn closest_points_match_brute_force_sampling() {
+        let (a, b, c) = (DVec3::new(0.0, 0.0, 0.0), DVec3::new(1.0, 0.0, 0.0), DVec3::new(0.2, 1.0, 0.3));
+        let mut seed = 7u64;
+        let mut rnd = || {
+            seed = seed.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            (seed >> 11) as f64 / (1u64 << 53) as f64 * 3.0 - 1.5
+        };
+        for _ in 0..200 {
+            let p = DVec3::new(rnd(), rnd(), rnd());
+            let w = closest_on_triangle(p, a, b, c);
+            let d = (p - (w[0] * a + w[1] * b + w[2] * c)).length();
+            let mut best = f64::INFINITY;
+            for i in 0..=100 {
+                for j in 0..=100 - i {
+                    let (u, v) = (i as f64 / 100.0, j as f64 / 100.0);
+                    best = best.min((p - (a + u * (b - a) + v * (c - a))).length());
+                }
+            }
+            assert!(d <= best + 1e-12 && d >= best - 0.02, "triangle: {d} vs sampled {best}");
+            let (q, r) = (DVec3::new(rnd(), rnd(), rnd()), DVec3::new(rnd(), rnd(), rnd()));
+            let (s, t) = closest_on_segments(a, b, q, r);
+            let d = ((a + s * (b - a)) - (q + t * (r - q))).length();
+            let mut best = f64::INFINITY;
+            for i in 0..=200 {
+                for j in 0..=200 {
+                    let (s, t) = (i as f64 / 200.0, j as f64 / 200.0);
+                    best = best.min(((a + s * (b - a)) - (q + t * (r - q))).length());
+                }
+            }
+            assert!(d <= best + 1e-12 && d >= best - 0.02, "segments: {d} vs sampled {best}");
+        }
+    }
+
+    #[test]
+    fn crossing_test_sees_a_pierce_and_not_a_near_miss() {
+        let t = [DVec3::new(0.0, 0.0, 0.0), DVec3::new(1.0, 0.0, 0.0), DVec3::new(0.0, 1.0, 0.0)];
+        let pierce = [DVec3::new(0.2, 0.2, -1.0), DVec3::new(0.2, 0.2, 1.0), DVec3::new(3.0, 3.0, 0.5)];
+        assert!(triangles_cross(t, pierce));
+        let miss = [DVec3::new(0.6, 0.6, -1.0), DVec3::new(0.6, 0.6, 1.0), DVec3::new(3.0, 3.0, 0.5)];
+        assert!(!triangles_cross(t, miss));
+        let above = t.map(|x| x + DVec3::new(0.0, 0.0, 1e-12));
+        assert!(!triangles_cross(t, above), "parallel, 1e-12 apart");
+    }
+}

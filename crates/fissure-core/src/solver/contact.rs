@@ -1,0 +1,348 @@
+//! The contact pass (see the [`crate::contact`] module for the model): candidates from a hash grid kept as a
+//! Verlet list, repulsion and friction impulses by projected Gauss–Seidel, then the displacement bound.
+
+use super::*;
+use crate::contact::geometry::{closest_on_segments, closest_on_triangle};
+use crate::contact::grid::HashGrid;
+use crate::contact::{Elements, GAMMA, RELAX, same_origin};
+use glam::DVec3;
+use rayon::prelude::*;
+
+/// Gauss–Seidel sweeps over the pairs at most (each sweep stops early once no impulse changes).
+const SWEEPS: usize = 16;
+/// Elements per parallel task of the candidate search.
+const TASK: usize = 512;
+
+/// A pair within reach this step: four particles with weights (`Σ w x` is the vector between the closest
+/// points, from the second element to the first), its normal, gap, thickness, friction, accumulated impulse.
+#[derive(Clone, Copy, Debug)]
+struct Pair {
+    p: [u32; 4],
+    w: [f64; 4],
+    n: DVec3,
+    d: f64,
+    h: f64,
+    mu: f64,
+    j: f64,
+}
+
+/// What the contact pass did in the last step.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct ContactStats {
+    /// Candidate pairs in the Verlet list (vertex–triangle + edge–edge).
+    pub candidates: usize,
+    /// Pairs within the search radius this step.
+    pub near: usize,
+    /// Pairs that took an impulse.
+    pub pushed: usize,
+    /// Particles whose move the displacement bound capped.
+    pub capped: usize,
+    /// Candidate lists built since the solver started.
+    pub builds: u64,
+}
+
+/// The contact pass's buffers, kept between steps.
+#[derive(Clone, Debug, Default)]
+pub(super) struct ContactScratch<R: Real> {
+    el: Option<Elements>,
+    /// Positions at the start of the substep.
+    pub x0: Vec<R::V>,
+    /// Positions when the candidates were found, and their search radius (0: none yet).
+    xb: Vec<R::V>,
+    radius: f64,
+    vt: Vec<[u32; 2]>,
+    ee: Vec<[u32; 2]>,
+    pairs: Vec<Pair>,
+    dv: Vec<DVec3>,
+    bound: Vec<f64>,
+    touched: Vec<u32>,
+    grid: HashGrid,
+    egrid: HashGrid,
+    pub stats: ContactStats,
+}
+
+impl<R: Real> ContactScratch<R> {
+    /// Forgets everything derived from the model (after a fracture or an edit).
+    pub fn invalidate(&mut self) {
+        self.el = None;
+        self.radius = 0.0;
+    }
+
+    /// Finds every allowed pair closer than `radius` at `x0` (the Verlet list).
+    fn build(&mut self, m: &Model<R>, radius: f64) {
+        let el = self.el.as_ref().expect("elements prepared");
+        let x0 = &self.x0;
+        let x = |i: u32| x0[i as usize].to_dvec3();
+        // Mean and longest edge set the cells and the edge query's reach.
+        let (mut l_sum, mut l_max) = (0.0, 0.0f64);
+        for &[a, b] in &el.edges {
+            let l = (x(b) - x(a)).length();
+            l_sum += l;
+            l_max = l_max.max(l);
+        }
+        let l_mean = l_sum / el.edges.len().max(1) as f64;
+        let cell = radius.max(l_mean).max(1e-9);
+        let parts = &el.particles;
+        self.grid.build(cell, parts.len(), |k| Some(x(parts[k])));
+        let edges = &el.edges;
+        self.egrid.build(cell, edges.len(), |k| Some(0.5 * (x(edges[k][0]) + x(edges[k][1]))));
+        let allowed = |a: u32, b: u32| a != b || m.body_self_contact[a as usize];
+        let (grid, egrid) = (&self.grid, &self.egrid);
+        let r2 = radius * radius;
+        self.vt = el
+            .tris
+            .par_chunks(TASK)
+            .map(|tris| {
+                let (mut out, mut buckets) = (Vec::new(), Vec::new());
+                for &t in tris {
+                    let tv = m.tri_indices[t as usize];
+                    let [a, b, c] = tv.map(x);
+                    let (lo, hi) = (a.min(b).min(c) - radius, a.max(b).max(c) + radius);
+                    let tb = m.tri_body[t as usize];
+                    grid.query(lo, hi, &mut buckets, |k| {
+                        let v = parts[k as usize];
+                        if tv.iter().any(|&u| same_origin(m, u, v)) || !allowed(m.particle_body[v as usize], tb) {
+                            return;
+                        }
+                        let p = x(v);
+                        if p.cmplt(lo).any() || p.cmpgt(hi).any() {
+                            return;
+                        }
+                        let w = closest_on_triangle(p, a, b, c);
+                        if (p - (w[0] * a + w[1] * b + w[2] * c)).length_squared() < r2 {
+                            out.push([v, t]);
+                        }
+                    });
+                }
+                out
+            })
+            .collect::<Vec<_>>()
+            .concat();
+        let reach = radius + 0.5 * l_max;
+        self.ee = (0..edges.len())
+            .collect::<Vec<_>>()
+            .par_chunks(TASK)
+            .map(|ks| {
+                let (mut out, mut buckets) = (Vec::new(), Vec::new());
+                for &e in ks {
+                    let [a0, a1] = edges[e];
+                    let (p, q) = (x(a0), x(a1));
+                    let (lo, hi) = (p.min(q) - reach, p.max(q) + reach);
+                    let eb = m.particle_body[a0 as usize];
+                    egrid.query(lo, hi, &mut buckets, |f| {
+                        let f = f as usize;
+                        if f <= e {
+                            return;
+                        }
+                        let [b0, b1] = edges[f];
+                        if [a0, a1].iter().any(|&a| same_origin(m, a, b0) || same_origin(m, a, b1))
+                            || !allowed(eb, m.particle_body[b0 as usize])
+                        {
+                            return;
+                        }
+                        let (r, s) = (x(b0), x(b1));
+                        let (u, v) = closest_on_segments(p, q, r, s);
+                        if ((p + u * (q - p)) - (r + v * (s - r))).length_squared() < r2 {
+                            out.push([e as u32, f as u32]);
+                        }
+                    });
+                }
+                out
+            })
+            .collect::<Vec<_>>()
+            .concat();
+        self.xb.clone_from(&self.x0);
+        self.radius = radius;
+        self.stats.builds += 1;
+    }
+
+    /// The candidates closer than `r` at `x0`, as pairs with weights and normals.
+    fn near(&mut self, m: &Model<R>, r: f64) {
+        let el = self.el.as_ref().expect("elements prepared");
+        let x0 = &self.x0;
+        let x = |i: u32| x0[i as usize].to_dvec3();
+        let pair = |p: [u32; 4], w: [f64; 4], fallback: DVec3, b: [u32; 2]| {
+            let diff: DVec3 = (0..4).map(|k| w[k] * x(p[k])).sum();
+            let d = diff.length();
+            if d >= r {
+                return None;
+            }
+            let n = if d > 1e-12 { diff / d } else { fallback.normalize_or(DVec3::Y) };
+            let [ba, bb] = b.map(|b| b as usize);
+            let h = m.body_contact_thickness[ba].to_f64().max(m.body_contact_thickness[bb].to_f64());
+            let mu = 0.5 * (m.body_contact_friction[ba].to_f64() + m.body_contact_friction[bb].to_f64());
+            Some(Pair { p, w, n, d, h, mu, j: 0.0 })
+        };
+        let vt = self.vt.par_chunks(TASK).map(|c| {
+            c.iter()
+                .filter_map(|&[v, t]| {
+                    let tv = m.tri_indices[t as usize];
+                    let [a, b, cc] = tv.map(x);
+                    let w = closest_on_triangle(x(v), a, b, cc);
+                    let b2 = [m.particle_body[v as usize], m.tri_body[t as usize]];
+                    pair([v, tv[0], tv[1], tv[2]], [1.0, -w[0], -w[1], -w[2]], (b - a).cross(cc - a), b2)
+                })
+                .collect::<Vec<_>>()
+        });
+        let edges = &el.edges;
+        let ee = self.ee.par_chunks(TASK).map(|c| {
+            c.iter()
+                .filter_map(|&[e, f]| {
+                    let ([a0, a1], [b0, b1]) = (edges[e as usize], edges[f as usize]);
+                    let (s, t) = closest_on_segments(x(a0), x(a1), x(b0), x(b1));
+                    let fallback = (x(a1) - x(a0)).cross(x(b1) - x(b0));
+                    let b2 = [m.particle_body[a0 as usize], m.particle_body[b0 as usize]];
+                    pair([a0, a1, b0, b1], [1.0 - s, s, t - 1.0, -t], fallback, b2)
+                })
+                .collect::<Vec<_>>()
+        });
+        let mut parts: Vec<Vec<Pair>> = vt.collect();
+        parts.extend(ee.collect::<Vec<_>>());
+        self.pairs.clear();
+        for p in parts {
+            self.pairs.extend(p);
+        }
+    }
+}
+
+impl<R: Real> CpuSolver<R> {
+    /// Keeps surfaces in contact apart (see the [`crate::contact`] module): from the positions `ct.x0` at the
+    /// start of the substep to those in `s`, over `dt` \[s\].
+    pub(super) fn contact(&mut self, m: &Model<R>, s: &mut State<R>, dt: f64, blown: &AtomicBool) {
+        if !m.has_contact() {
+            return;
+        }
+        let t0 = Instant::now();
+        let c = &mut self.ct;
+        if c.el.is_none() {
+            c.el = Some(Elements::of(m));
+            c.radius = 0.0;
+        }
+        let el = c.el.as_ref().expect("just set");
+        let h_max = el.h_max;
+        // The largest move this step, and the largest drift since the candidates were found.
+        let (x0, xb, q) = (&c.x0, &c.xb, &s.particle_q);
+        let fresh = c.radius > 0.0 && xb.len() == x0.len();
+        let (d_max, drift) = el
+            .particles
+            .par_chunks(TASK)
+            .map(|ps| {
+                ps.iter().fold((0.0f64, 0.0f64), |(d, r), &i| {
+                    let i = i as usize;
+                    let moved = (q[i].to_dvec3() - x0[i].to_dvec3()).length();
+                    let drifted = if fresh { (x0[i].to_dvec3() - xb[i].to_dvec3()).length() } else { 0.0 };
+                    (d.max(moved), r.max(drifted))
+                })
+            })
+            .reduce(|| (0.0, 0.0), |a, b| (a.0.max(b.0), a.1.max(b.1)));
+        if !(d_max.is_finite() && drift.is_finite()) {
+            blown.store(true, Ordering::Relaxed);
+            return;
+        }
+        // A particle with nothing within `r` moves at most d_max <= GAMMA r: the bound never caps it.
+        let r = h_max + d_max / GAMMA;
+        // Pairs missing from the list were `radius` apart when it was built and have closed in by at most
+        // 2 drift since.
+        if !(fresh && c.radius - 2.0 * drift >= r) {
+            c.build(m, 2.0 * r + h_max);
+        }
+        c.near(m, r);
+        let n = m.particle_count();
+        if c.dv.len() != n {
+            c.dv = vec![DVec3::ZERO; n];
+            c.bound = vec![f64::INFINITY; n];
+        }
+        let ContactScratch { pairs, dv, bound, touched, x0, .. } = c;
+        touched.clear();
+        for p in pairs.iter() {
+            for &i in &p.p {
+                if bound[i as usize] == f64::INFINITY {
+                    touched.push(i);
+                    bound[i as usize] = GAMMA * r;
+                }
+                bound[i as usize] = bound[i as usize].min(GAMMA * p.d);
+            }
+        }
+        // Projected Gauss–Seidel on the normal impulses, in the pairs' order.
+        let inv_m = |i: u32| m.particle_inv_mass[i as usize].to_f64();
+        let qd = &s.particle_qd;
+        let vel = |dv: &[DVec3], i: u32| qd[i as usize].to_dvec3() + dv[i as usize];
+        let mut pushed = 0;
+        for _ in 0..SWEEPS {
+            let mut change = 0.0f64;
+            for p in pairs.iter_mut() {
+                let wsum: f64 = (0..4).map(|k| p.w[k] * p.w[k] * inv_m(p.p[k])).sum();
+                if wsum <= 0.0 {
+                    continue;
+                }
+                let un: f64 = (0..4).map(|k| p.w[k] * vel(dv, p.p[k]).dot(p.n)).sum();
+                let target = if p.d >= p.h { (p.h - p.d) / dt } else { RELAX * (p.h - p.d) / dt };
+                let j = (p.j + (target - un) / wsum).max(0.0);
+                let dj = j - p.j;
+                if dj != 0.0 {
+                    p.j = j;
+                    for k in 0..4 {
+                        dv[p.p[k] as usize] += (p.w[k] * inv_m(p.p[k]) * dj) * p.n;
+                    }
+                    change = change.max((dj * wsum).abs());
+                }
+            }
+            if change <= 1e-9 * (h_max / dt) {
+                break;
+            }
+        }
+        // Coulomb friction, up to mu times each pair's normal impulse.
+        for p in pairs.iter() {
+            if p.j <= 0.0 {
+                continue;
+            }
+            pushed += 1;
+            let wsum: f64 = (0..4).map(|k| p.w[k] * p.w[k] * inv_m(p.p[k])).sum();
+            let u: DVec3 = (0..4).map(|k| p.w[k] * vel(dv, p.p[k])).sum();
+            let ut = u - u.dot(p.n) * p.n;
+            let speed = ut.length();
+            if speed > 0.0 && wsum > 0.0 {
+                let jt = (speed / wsum).min(p.mu * p.j);
+                let dir = ut / speed;
+                for k in 0..4 {
+                    dv[p.p[k] as usize] -= (p.w[k] * inv_m(p.p[k]) * jt) * dir;
+                }
+            }
+        }
+        // Apply, then cap each move at its bound.
+        let mut capped = 0;
+        let h = dt;
+        for &i in touched.iter() {
+            let i = i as usize;
+            let d = std::mem::take(&mut dv[i]);
+            let b = std::mem::replace(&mut bound[i], f64::INFINITY);
+            if m.particle_inv_mass[i] == R::ZERO {
+                continue;
+            }
+            let (x0i, mut x, mut v) = (x0[i].to_dvec3(), s.particle_q[i].to_dvec3(), s.particle_qd[i].to_dvec3());
+            x += h * d;
+            v += d;
+            let step = x - x0i;
+            let len = step.length();
+            if len > b {
+                let k = b / len;
+                x = x0i + k * step;
+                v *= k;
+                capped += 1;
+            }
+            s.particle_q[i] = R::V::from_dvec3(x);
+            s.particle_qd[i] = R::V::from_dvec3(v);
+        }
+        let c = &mut self.ct;
+        c.stats.candidates = c.vt.len() + c.ee.len();
+        c.stats.near = c.pairs.len();
+        c.stats.pushed = pushed;
+        c.stats.capped = capped;
+        self.timers.add(Stage::Contact, t0);
+    }
+
+    /// What the contact pass did in the last step.
+    pub fn contact_stats(&self) -> ContactStats {
+        self.ct.stats
+    }
+}
