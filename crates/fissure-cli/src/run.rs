@@ -333,6 +333,17 @@ fn print_summary(scene: &Scene, cfg: &RunConfig, s: &RunSummary) {
         let v: f64 = w.model.body_volumes(&w.state).iter().sum();
         println!("| gas volume | {:.3} l |", v * 1e3);
     }
+    if let Some(c) = w.solver.as_any().downcast_ref::<fissure::CpuSolver<f32>>().filter(|_| w.model.has_contact()) {
+        let c = c.contact_stats();
+        let per = |x: u64| x as f64 / c.steps.max(1) as f64;
+        println!(
+            "| contact | {:.1} pairs within reach and {:.1} pushed per step, {} candidate lists built, {} moves capped |",
+            per(c.near_total),
+            per(c.pushed_total),
+            c.builds,
+            c.capped_total
+        );
+    }
     println!("| stage times | {} |", stage_line(&w.timers()));
     match (&s.not_drawn, s.pngs.len()) {
         (Some(why), _) => println!("| pictures | none: {why} |"),

@@ -1,6 +1,7 @@
 //! A hashed uniform grid of points, built by a counting sort (the layout a GPU builds with u32 atomics): each
-//! point goes to the bucket of its cell, buckets hold their points in index order, and a box query visits each
-//! bucket its cells hash to once. Distinct cells may share a bucket; callers test exact distances anyway.
+//! point goes to the bucket of its cell, buckets hold their points in index order with their cell's key, and a
+//! box query visits each of its cells' buckets and keeps the points of that very cell: every point in the box's
+//! cells once, without sorting or deduplicating buckets.
 
 use glam::DVec3;
 
@@ -12,7 +13,10 @@ pub struct HashGrid {
     /// `start[b]..start[b + 1]`: bucket `b`'s slice of `items`.
     start: Vec<u32>,
     items: Vec<u32>,
+    /// The packed cell key of each entry of `items`.
+    cells: Vec<u64>,
     keys: Vec<u32>,
+    packed: Vec<u64>,
 }
 
 impl HashGrid {
@@ -21,13 +25,24 @@ impl HashGrid {
         self.inv_cell = 1.0 / cell;
         let buckets = (2 * n).next_power_of_two().max(64);
         self.mask = buckets - 1;
-        let mut keys = std::mem::take(&mut self.keys);
+        let (mut keys, mut packed) = (std::mem::take(&mut self.keys), std::mem::take(&mut self.packed));
         keys.clear();
-        keys.extend((0..n).map(|k| match point(k) {
-            Some(p) => self.bucket(self.cell(p)) as u32,
-            None => u32::MAX,
-        }));
+        packed.clear();
+        for k in 0..n {
+            match point(k) {
+                Some(p) => {
+                    let c = self.cell(p);
+                    keys.push(self.bucket(c) as u32);
+                    packed.push(pack(c));
+                }
+                None => {
+                    keys.push(u32::MAX);
+                    packed.push(0);
+                }
+            }
+        }
         self.keys = keys;
+        self.packed = packed;
         self.start.clear();
         self.start.resize(buckets + 1, 0);
         for &b in &self.keys {
@@ -40,10 +55,14 @@ impl HashGrid {
         }
         self.items.clear();
         self.items.resize(self.start[buckets] as usize, 0);
+        self.cells.clear();
+        self.cells.resize(self.start[buckets] as usize, 0);
         let mut fill = self.start[..buckets].to_vec();
         for (k, &b) in self.keys.iter().enumerate() {
             if b != u32::MAX {
-                self.items[fill[b as usize] as usize] = k as u32;
+                let slot = fill[b as usize] as usize;
+                self.items[slot] = k as u32;
+                self.cells[slot] = self.packed[k];
                 fill[b as usize] += 1;
             }
         }
@@ -60,9 +79,9 @@ impl HashGrid {
         ((h ^ (h >> 29)) as usize) & self.mask
     }
 
-    /// Calls `f` on every point whose cell meets the box `[lo, hi]` (and on some others that share a bucket),
-    /// each once, in bucket order. `buckets` is scratch.
-    pub fn query(&self, lo: DVec3, hi: DVec3, buckets: &mut Vec<u32>, mut f: impl FnMut(u32)) {
+    /// Calls `f` on every point whose cell meets the box `[lo, hi]`, each once, in cell order (all points when
+    /// the box spans more cells than the grid has buckets).
+    pub fn query(&self, lo: DVec3, hi: DVec3, mut f: impl FnMut(u32)) {
         let (a, b) = (self.cell(lo), self.cell(hi));
         let span = |k: usize| (b[k] - a[k] + 1).max(0) as u128;
         let cells = span(0) * span(1) * span(2);
@@ -70,21 +89,25 @@ impl HashGrid {
             self.items.iter().for_each(|&i| f(i));
             return;
         }
-        buckets.clear();
         for x in a[0]..=b[0] {
             for y in a[1]..=b[1] {
                 for z in a[2]..=b[2] {
-                    buckets.push(self.bucket([x, y, z]) as u32);
+                    let bk = self.bucket([x, y, z]);
+                    let key = pack([x, y, z]);
+                    let range = self.start[bk] as usize..self.start[bk + 1] as usize;
+                    for (&i, &c) in self.items[range.clone()].iter().zip(&self.cells[range]) {
+                        if c == key {
+                            f(i);
+                        }
+                    }
                 }
             }
         }
-        buckets.sort_unstable();
-        buckets.dedup();
-        for &bk in buckets.iter() {
-            let bk = bk as usize;
-            for &i in &self.items[self.start[bk] as usize..self.start[bk + 1] as usize] {
-                f(i);
-            }
-        }
     }
+}
+
+/// A cell's key: 21 bits per axis (cells 2^21 apart share a key; a query never spans that many, see `query`).
+fn pack(c: [i64; 3]) -> u64 {
+    let m = (1u64 << 21) - 1;
+    ((c[0] as u64 & m) << 42) | ((c[1] as u64 & m) << 21) | (c[2] as u64 & m)
 }

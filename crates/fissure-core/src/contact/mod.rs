@@ -89,6 +89,8 @@ impl Contact {
 pub(crate) struct Elements {
     pub tris: Vec<u32>,
     pub edges: Vec<[u32; 2]>,
+    /// `0..edges.len()`.
+    pub edge_ids: Vec<u32>,
     pub particles: Vec<u32>,
     /// Largest thickness of any body in contact \[m\].
     pub h_max: f64,
@@ -111,7 +113,8 @@ impl Elements {
         particles.sort_unstable();
         particles.dedup();
         let h_max = m.body_contact_thickness.iter().map(|h| h.to_f64()).fold(0.0, f64::max);
-        Elements { tris, edges, particles, h_max }
+        let edge_ids = (0..edges.len() as u32).collect();
+        Elements { tris, edges, edge_ids, particles, h_max }
     }
 }
 
@@ -153,12 +156,11 @@ pub fn crossings<R: Real>(m: &Model<R>, q: &[R::V]) -> Vec<[u32; 2]> {
     let centroid = |t: usize| corners(t).iter().sum::<DVec3>() / 3.0;
     grid.build(l_max, nt, |t| Some(centroid(t)));
     let mut out = Vec::new();
-    let mut buckets = Vec::new();
     for t in 0..nt {
         let c = corners(t);
         let (lo, hi) = (c[0].min(c[1]).min(c[2]), c[0].max(c[1]).max(c[2]));
         let tv = m.tri_indices[t];
-        grid.query(lo - l_max, hi + l_max, &mut buckets, |u| {
+        grid.query(lo - l_max, hi + l_max, |u| {
             let u = u as usize;
             if u <= t {
                 return;
