@@ -238,6 +238,27 @@ impl ModelBuilder {
         handle_dict(py, h)
     }
 
+    /// Switches contact on for body `body` (the `index` of the dict an `add_*` call returned): its surface
+    /// collides with every other body in contact and, with `self_collision`, with itself. `thickness` \[m\] is the
+    /// gap kept (default 0.2 × the body's mean edge length); `friction` the Coulomb coefficient.
+    #[pyo3(signature = (body, *, thickness = None, self_collision = false, friction = 0.3))]
+    fn set_contact(
+        &mut self,
+        body: usize,
+        thickness: Option<f64>,
+        self_collision: bool,
+        friction: f64,
+    ) -> PyResult<()> {
+        let c = fissure::Contact { thickness, self_collision, friction };
+        self.inner.set_contact(body, c).map_err(|e| {
+            core_err(
+                e,
+                &[("contact.thickness", "thickness"), ("contact.friction", "friction"), ("contact body", "body")],
+            )
+        })?;
+        Ok(())
+    }
+
     /// The ground `y = height`.
     #[pyo3(signature = (height = 0.0, *, restitution = 0.3, friction = 0.4, margin = 0.0))]
     fn add_ground(&mut self, height: f32, restitution: f32, friction: f32, margin: f32) -> PyResult<()> {

@@ -227,4 +227,25 @@ impl Solver {
     fn timers<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
         timers_dict(py, fissure::Solver::timers(&self.inner))
     }
+
+    /// What the contact pass did: the last step's `candidates`, `near`, `pushed` and `capped` pairs/particles,
+    /// and totals since the solver started (`steps`, `builds`, `near_total`, `pushed_total`, `capped_total`).
+    fn contact_stats<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
+        let c = self.inner.contact_stats();
+        let d = PyDict::new(py);
+        for (k, v) in [
+            ("candidates", c.candidates as u64),
+            ("near", c.near as u64),
+            ("pushed", c.pushed as u64),
+            ("capped", c.capped as u64),
+            ("steps", c.steps),
+            ("builds", c.builds),
+            ("near_total", c.near_total),
+            ("pushed_total", c.pushed_total),
+            ("capped_total", c.capped_total),
+        ] {
+            d.set_item(k, v)?;
+        }
+        Ok(d)
+    }
 }
