@@ -208,3 +208,20 @@ fn a_model_without_contact_does_no_contact_work() {
     assert!(b2.set_contact(0, Contact { thickness: Some(-1.0), ..Default::default() }).is_err());
     assert!(b2.set_contact(0, Contact { friction: f64::NAN, ..Default::default() }).is_err());
 }
+
+#[test]
+fn implicit_euler_at_a_sixtieth_of_a_second_stays_stable_with_contact() {
+    let (m, a, z) = head_on::<f32>();
+    let mut s = m.state();
+    let mut solver = CpuSolver::<f32>::with_integrator(Integrator::ImplicitEuler);
+    let mut pushes = 0;
+    for step in 0..60 {
+        solver.step(&m, &mut s, 1.0 / 60.0).unwrap();
+        pushes += solver.contact_stats().pushed;
+        assert!(crossings(&m, &s.particle_q).is_empty(), "surfaces crossed at step {step}");
+    }
+    assert!(pushes > 0, "the balloons never touched");
+    let ((xa, va), (xz, vz)) = (com(&m, &s, a.particles()), com(&m, &s, z.particles()));
+    assert!(va.is_finite() && vz.is_finite() && va.length() < 3.0 && vz.length() < 3.0, "{va} {vz}");
+    assert!(xz.x > xa.x + 0.3, "passed through or stuck: centres {xa} {xz}");
+}

@@ -1,0 +1,85 @@
+//! Issue 16's contact benchmark: a 128 × 128 cloth (1 cm spacing, 1.27 m wide) dropped onto a ball collider
+//! (radius 0.3 m) and the floor, with self-collision, against the same cloth without it, per step, from the same
+//! folded state. Prints µs/step both ways, their ratio, and the contact pass's pairs per step.
+//!
+//! Run: `cargo bench --bench contact`. `FISSURE_BENCH_QUICK=1` shrinks the cloth to 32 × 32 so CI can run it fast.
+
+use criterion::{Criterion, criterion_group, criterion_main};
+use fissure::glam::{DVec3, Vec3};
+use fissure::*;
+use std::hint::black_box;
+use std::time::Instant;
+
+fn fold_model(n: usize, contact: bool) -> Model<f32> {
+    let mut b = ModelBuilder::new();
+    b.add_collider(Collider::ball(Vec3::new(0.0, 0.3, 0.0), 0.3).with_friction(0.5).with_restitution(0.0)).unwrap();
+    b.add_collider(Collider::ground(0.0).with_restitution(0.0)).unwrap();
+    let spacing = 0.01 * 128.0 / n as f64;
+    let w = spacing * (n - 1) as f64;
+    let opts = ClothOptions {
+        mass: Mass::AreaDensity(0.25),
+        stiffness: Stiffness::Membrane(400.0),
+        shear: Some(Stiffness::Membrane(100.0)),
+        bending: Some(Stiffness::Membrane(1.0)),
+        damping: Damping::Ratio(0.2),
+        ..Default::default()
+    };
+    let place = |q: DVec3| DVec3::new(q.x - w / 2.0 + 0.05, 0.75, q.y + w / 2.0);
+    let h = b.add_cloth_grid(n, n, spacing, place, &opts).unwrap();
+    if contact {
+        b.set_contact(h.index, Contact { self_collision: true, friction: 0.4, ..Default::default() }).unwrap();
+    }
+    b.finalize().unwrap()
+}
+
+fn bench(c: &mut Criterion) {
+    let n = if std::env::var_os("FISSURE_BENCH_QUICK").is_some() { 32 } else { 128 };
+    let (with, without) = (fold_model(n, true), fold_model(n, false));
+    let config = SolverConfig { substep_safety: Some(0.8), ..Default::default() };
+    let mut state = with.state();
+    let mut solver = CpuSolver::<f32>::new(config.clone());
+    let dt = 2e-4;
+    // Fall onto the ball and start folding (0.5 s).
+    for _ in 0..2500 {
+        solver.step(&with, &mut state, dt).unwrap();
+    }
+    let folded = state.clone();
+    let steps = 300;
+    let time = |model: &Model<f32>, solver: &mut CpuSolver<f32>| {
+        let mut s = folded.clone();
+        solver.reset_timers();
+        let t0 = Instant::now();
+        for _ in 0..steps {
+            solver.step(model, &mut s, dt).unwrap();
+        }
+        t0.elapsed().as_secs_f64() / steps as f64
+    };
+    let mut plain = CpuSolver::<f32>::new(config);
+    let t_without = time(&without, &mut plain);
+    let before = solver.contact_stats();
+    let t_with = time(&with, &mut solver);
+    let after = solver.contact_stats();
+    let per = |a: u64, b: u64| (a - b) as f64 / steps as f64;
+    println!(
+        "cloth {n}x{n} folding on a ball, {} threads: {:.1} µs/step with self-collision, {:.1} without: {:.2}x; \
+         {:.0} pairs within reach and {:.0} pushed per step, {} candidate lists in {steps} steps",
+        rayon::current_num_threads(),
+        t_with * 1e6,
+        t_without * 1e6,
+        t_with / t_without,
+        per(after.near_total, before.near_total),
+        per(after.pushed_total, before.pushed_total),
+        after.builds - before.builds
+    );
+    println!("{}", solver.timers());
+    let mut s = folded.clone();
+    c.bench_function(&format!("cloth_{n}x{n}_fold_self_collision_step"), |b| {
+        b.iter(|| {
+            solver.step(&with, &mut s, dt).unwrap();
+            black_box(&s);
+        })
+    });
+}
+
+criterion_group!(benches, bench);
+criterion_main!(benches);
