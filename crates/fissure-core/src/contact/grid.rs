@@ -85,7 +85,7 @@ impl HashGrid {
         let (a, b) = (self.cell(lo), self.cell(hi));
         let span = |k: usize| (b[k] - a[k] + 1).max(0) as u128;
         let cells = span(0) * span(1) * span(2);
-        if cells as usize >= self.mask + 1 || !(lo.is_finite() && hi.is_finite()) {
+        if cells > self.mask as u128 || !(lo.is_finite() && hi.is_finite()) {
             self.items.iter().for_each(|&i| f(i));
             return;
         }
