@@ -454,6 +454,11 @@ fn bad_input_gets_clear_errors() {
         GpuConfig { integrator: Integrator::Rk4, ..Default::default() },
     );
     assert!(matches!(e, Err(GpuError::UnsupportedIntegrator("rk4"))));
+    let mut b = scenes::benchmark_cloth(8).unwrap();
+    b.set_contact(0, Contact { self_collision: true, ..Default::default() }).unwrap();
+    let with_contact: Model<f32> = b.finalize().unwrap();
+    let e = GpuSolver::new(ctx.device.clone(), ctx.queue.clone(), &with_contact, GpuConfig::default());
+    assert!(matches!(e, Err(GpuError::UnsupportedContact)), "contact must be refused, not ignored");
     let mut g = solver(&ctx, &m, Integrator::SymplecticEuler);
     assert!(matches!(g.run(&m, -1.0, 1), Err(GpuError::BadTimeStep(_))));
     let other: Model<f32> = scenes::benchmark_cloth(9).unwrap().finalize().unwrap();

@@ -105,6 +105,11 @@ pub enum GpuError {
         "the GPU solver runs symplectic Euler and velocity Verlet; {0} runs on the CPU solver only (fissure_core::CpuSolver)"
     )]
     UnsupportedIntegrator(&'static str),
+    /// The model has contact between surfaces, which has no GPU kernels yet.
+    #[error(
+        "contact between surfaces (ModelBuilder::set_contact, the scene keys `contact`/`self_collision`) runs on the CPU solver only for now (fissure_core::CpuSolver, `--backend cpu`)"
+    )]
+    UnsupportedContact,
     /// A collider could not be prepared.
     #[error("collider {index}: {message}")]
     Collider {

@@ -201,8 +201,8 @@ fn scratch(device: &wgpu::Device, m: &Model<f32>, p: &Packed) -> Scratch {
 
 impl GpuSolver {
     /// A solver for `model` at its initial state, on a device the caller created (see
-    /// [`crate::GpuContext`] for one way). Fails when the integrator has no kernels, the device's limits are too
-    /// small, or a collider cannot be baked.
+    /// [`crate::GpuContext`] for one way). Fails when the integrator has no kernels, the model has contact between
+    /// surfaces (CPU only for now), the device's limits are too small, or a collider cannot be baked.
     pub fn new(
         device: wgpu::Device,
         queue: wgpu::Queue,
@@ -212,6 +212,10 @@ impl GpuSolver {
         match config.integrator {
             Integrator::SymplecticEuler | Integrator::VelocityVerlet => {}
             other => return Err(GpuError::UnsupportedIntegrator(other.name())),
+        }
+        // Refused rather than ignored: a GPU run of a contact scene would pass bodies through each other.
+        if model.has_contact() {
+            return Err(GpuError::UnsupportedContact);
         }
         let limits = device.limits();
         if limits.max_storage_buffers_per_shader_stage < STORAGE_BINDINGS {
