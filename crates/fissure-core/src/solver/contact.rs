@@ -251,6 +251,42 @@ impl<R: Real> ContactScratch<R> {
     }
 }
 
+/// Bodies past which [`closing`] is not worth its pairwise loop (the global drift test decides alone).
+const CLOSING_BODIES: usize = 64;
+
+/// How much closer any two elements that may touch can have come since `xb` (at `x0`): over the pairs of bodies
+/// in contact that interact, the largest `|c_a - c_b| + dev_a + dev_b`, with `c` a body's mean displacement
+/// and `dev` its particles' largest deviation from it (a point of an element moves by `c` plus at most `dev`).
+/// `None` with more than [`CLOSING_BODIES`] bodies.
+fn closing<R: Real>(m: &Model<R>, particles: &[u32], x0: &[R::V], xb: &[R::V]) -> Option<f64> {
+    let nb = m.body_count();
+    if nb > CLOSING_BODIES {
+        return None;
+    }
+    let mut mean = vec![(DVec3::ZERO, 0usize); nb];
+    let d = |i: usize| x0[i].to_dvec3() - xb[i].to_dvec3();
+    for &i in particles {
+        let b = m.particle_body[i as usize] as usize;
+        mean[b].0 += d(i as usize);
+        mean[b].1 += 1;
+    }
+    let c: Vec<DVec3> = mean.iter().map(|&(s, n)| if n > 0 { s / n as f64 } else { DVec3::ZERO }).collect();
+    let mut dev = vec![0.0f64; nb];
+    for &i in particles {
+        let b = m.particle_body[i as usize] as usize;
+        dev[b] = dev[b].max((d(i as usize) - c[b]).length());
+    }
+    let mut worst: f64 = 0.0;
+    for a in 0..nb {
+        for b in a..nb {
+            if mean[a].1 > 0 && mean[b].1 > 0 && (a != b || m.body_self_contact[a]) {
+                worst = worst.max((c[a] - c[b]).length() + dev[a] + dev[b]);
+            }
+        }
+    }
+    Some(worst)
+}
+
 impl<R: Real> CpuSolver<R> {
     /// Keeps surfaces in contact apart (see the [`crate::contact`] module): from the positions `ct.x0` at the
     /// start of the substep to those in `s`, over `dt` \[s\].
@@ -291,8 +327,12 @@ impl<R: Real> CpuSolver<R> {
         // A particle with nothing within `r` moves at most d_max <= GAMMA r: the bound never caps it.
         let r = h_max + d_max / GAMMA;
         // Pairs missing from the list were `radius` apart when it was built and have closed in by at most
-        // 2 drift since.
-        if !(fresh && c.radius - 2.0 * drift >= r) {
+        // 2 drift since; when that is not enough, by at most what their bodies moved relative to each other
+        // (a piece riding on the ball it came from, a cloth falling as a whole, does not force a rebuild).
+        let valid = fresh
+            && (c.radius - 2.0 * drift >= r
+                || closing(m, &el.particles, &c.x0, &c.xb).is_some_and(|close| c.radius - close >= r));
+        if !valid {
             c.build(m, SKIN * r + h_max);
         }
         c.near(m, r);
