@@ -21,10 +21,23 @@ const SKIN: f64 = 2.0;
 /// Elements per parallel task of the candidate search.
 const TASK: usize = 512;
 
-/// `f` over `items` in chunks of [`TASK`], concatenated in order: in parallel when there are at least `min`
-/// items, else in one call on this thread (the same result either way: `f` maps each item on its own).
-fn map_chunks<T: Sync, U: Send + Clone>(items: &[T], min: usize, f: impl Fn(&[T]) -> Vec<U> + Sync + Send) -> Vec<U> {
-    if items.len() < min { f(items) } else { items.par_chunks(TASK).map(f).collect::<Vec<_>>().concat() }
+/// Appends to `out` what `f` makes of `items`, in order: in parallel chunks of [`TASK`] when there are at least
+/// `min` items, else in one call on this thread straight into `out` (the same result either way: `f` maps each
+/// item on its own).
+fn extend_chunks<T: Sync, U: Send>(out: &mut Vec<U>, items: &[T], min: usize, f: impl Fn(&[T], &mut Vec<U>) + Sync) {
+    if items.len() < min {
+        f(items, out);
+    } else {
+        let parts: Vec<Vec<U>> = items
+            .par_chunks(TASK)
+            .map(|c| {
+                let mut v = Vec::new();
+                f(c, &mut v);
+                v
+            })
+            .collect();
+        parts.into_iter().for_each(|p| out.extend(p));
+    }
 }
 
 /// Candidate searches per element cost a grid query: parallel from this many elements.
@@ -33,11 +46,13 @@ const PAR_BUILD: usize = 2 * TASK;
 const PAR_NEAR: usize = 8 * TASK;
 
 /// A pair within reach this step: four particles with weights (`Σ w x` is the vector between the closest
-/// points, from the second element to the first), its normal, gap, thickness, friction, accumulated impulse.
+/// points, from the second element to the first), `Σ w² / m` (the inverse of its effective mass; 0: all pinned),
+/// its normal, gap, thickness, friction, accumulated impulse.
 #[derive(Clone, Copy, Debug)]
 struct Pair {
     p: [u32; 4],
     w: [f64; 4],
+    wsum: f64,
     n: DVec3,
     d: f64,
     h: f64,
@@ -137,8 +152,8 @@ impl<R: Real> ContactScratch<R> {
         self.egrid.build(cell, edges.len(), |k| on(edges[k][0]).then(|| 0.5 * (x(edges[k][0]) + x(edges[k][1]))));
         let (grid, egrid) = (&self.grid, &self.egrid);
         let r2 = radius * radius;
-        self.vt = map_chunks(&el.tris, PAR_BUILD, |tris| {
-            let mut out = Vec::new();
+        self.vt.clear();
+        extend_chunks(&mut self.vt, &el.tris, PAR_BUILD, |tris, out| {
             for &t in tris {
                 let tv = m.tri_indices[t as usize];
                 let [a, b, c] = tv.map(x);
@@ -162,11 +177,10 @@ impl<R: Real> ContactScratch<R> {
                     }
                 });
             }
-            out
         });
         let reach = radius + 0.5 * l_max;
-        self.ee = map_chunks(&el.edge_ids, PAR_BUILD, |ks| {
-            let mut out = Vec::new();
+        self.ee.clear();
+        extend_chunks(&mut self.ee, &el.edge_ids, PAR_BUILD, |ks, out| {
             for &e in ks {
                 let e = e as usize;
                 let [a0, a1] = edges[e];
@@ -198,7 +212,6 @@ impl<R: Real> ContactScratch<R> {
                     }
                 });
             }
-            out
         });
         self.xb.clone_from(&self.x0);
         self.radius = radius;
@@ -220,34 +233,28 @@ impl<R: Real> ContactScratch<R> {
             let [ba, bb] = b.map(|b| b as usize);
             let h = m.body_contact_thickness[ba].to_f64().max(m.body_contact_thickness[bb].to_f64());
             let mu = 0.5 * (m.body_contact_friction[ba].to_f64() + m.body_contact_friction[bb].to_f64());
-            Some(Pair { p, w, n, d, h, mu, j: 0.0 })
+            let wsum = (0..4).map(|k| w[k] * w[k] * m.particle_inv_mass[p[k] as usize].to_f64()).sum();
+            Some(Pair { p, w, wsum, n, d, h, mu, j: 0.0 })
         };
-        let vt = map_chunks(&self.vt, PAR_NEAR, |c| {
-            c.iter()
-                .filter_map(|&[v, t]| {
-                    let tv = m.tri_indices[t as usize];
-                    let [a, b, cc] = tv.map(x);
-                    let w = closest_on_triangle(x(v), a, b, cc);
-                    let b2 = [m.particle_body[v as usize], m.tri_body[t as usize]];
-                    pair([v, tv[0], tv[1], tv[2]], [1.0, -w[0], -w[1], -w[2]], (b - a).cross(cc - a), b2)
-                })
-                .collect::<Vec<_>>()
-        });
         let edges = &el.edges;
-        let ee = map_chunks(&self.ee, PAR_NEAR, |c| {
-            c.iter()
-                .filter_map(|&[e, f]| {
-                    let ([a0, a1], [b0, b1]) = (edges[e as usize], edges[f as usize]);
-                    let (s, t) = closest_on_segments(x(a0), x(a1), x(b0), x(b1));
-                    let fallback = (x(a1) - x(a0)).cross(x(b1) - x(b0));
-                    let b2 = [m.particle_body[a0 as usize], m.particle_body[b0 as usize]];
-                    pair([a0, a1, b0, b1], [1.0 - s, s, t - 1.0, -t], fallback, b2)
-                })
-                .collect::<Vec<_>>()
-        });
+        let vt_pair = |&[v, t]: &[u32; 2]| {
+            let tv = m.tri_indices[t as usize];
+            let [a, b, cc] = tv.map(x);
+            let w = closest_on_triangle(x(v), a, b, cc);
+            let b2 = [m.particle_body[v as usize], m.tri_body[t as usize]];
+            pair([v, tv[0], tv[1], tv[2]], [1.0, -w[0], -w[1], -w[2]], (b - a).cross(cc - a), b2)
+        };
+        let ee_pair = |&[e, f]: &[u32; 2]| {
+            let ([a0, a1], [b0, b1]) = (edges[e as usize], edges[f as usize]);
+            let (s, t) = closest_on_segments(x(a0), x(a1), x(b0), x(b1));
+            let fallback = (x(a1) - x(a0)).cross(x(b1) - x(b0));
+            let b2 = [m.particle_body[a0 as usize], m.particle_body[b0 as usize]];
+            pair([a0, a1, b0, b1], [1.0 - s, s, t - 1.0, -t], fallback, b2)
+        };
+        // Vertex–triangle pairs, then edge–edge pairs, each in their list's order.
         self.pairs.clear();
-        self.pairs.extend(vt);
-        self.pairs.extend(ee);
+        extend_chunks(&mut self.pairs, &self.vt, PAR_NEAR, |c, o| o.extend(c.iter().filter_map(vt_pair)));
+        extend_chunks(&mut self.pairs, &self.ee, PAR_NEAR, |c, o| o.extend(c.iter().filter_map(ee_pair)));
     }
 }
 
@@ -366,7 +373,7 @@ impl<R: Real> CpuSolver<R> {
             let mut keep = 0;
             for k in 0..hot.len() {
                 let p = &mut pairs[hot[k] as usize];
-                let wsum: f64 = (0..4).map(|k| p.w[k] * p.w[k] * inv_m(p.p[k])).sum();
+                let wsum = p.wsum;
                 if wsum <= 0.0 {
                     continue;
                 }
@@ -399,7 +406,7 @@ impl<R: Real> CpuSolver<R> {
                 continue;
             }
             pushed += 1;
-            let wsum: f64 = (0..4).map(|k| p.w[k] * p.w[k] * inv_m(p.p[k])).sum();
+            let wsum = p.wsum;
             let u: DVec3 = (0..4).map(|k| p.w[k] * vel(dv, p.p[k])).sum();
             let ut = u - u.dot(p.n) * p.n;
             let speed = ut.length();
@@ -413,7 +420,6 @@ impl<R: Real> CpuSolver<R> {
         }
         // Apply, then cap each move at its bound.
         let mut capped = 0;
-        let h = dt;
         for &i in touched.iter() {
             let i = i as usize;
             let d = std::mem::take(&mut dv[i]);
@@ -422,7 +428,7 @@ impl<R: Real> CpuSolver<R> {
                 continue;
             }
             let (x0i, mut x, mut v) = (x0[i].to_dvec3(), s.particle_q[i].to_dvec3(), s.particle_qd[i].to_dvec3());
-            x += h * d;
+            x += dt * d;
             v += d;
             let step = x - x0i;
             let len = step.length();
