@@ -52,7 +52,12 @@ fn ball(subdivisions: u32, shuffled: bool, breakable: bool) -> Model<f32> {
         mass: Mass::Total(0.4),
         stiffness: Stiffness::PerSpring(1e3),
         gas: Gas::Amount(200.0),
-        fracture: breakable.then_some(Breakable { strain_limit: f64::INFINITY, load_limit: 1e9, sealed: true }),
+        fracture: breakable.then_some(Breakable {
+            strain_limit: f64::INFINITY,
+            load_limit: 1e9,
+            sealed: true,
+            ..Default::default()
+        }),
         ..Default::default()
     };
     b.add_soft_body(&mesh(subdivisions, shuffled), &opts).unwrap();

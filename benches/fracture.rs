@@ -15,7 +15,7 @@ fn ball(subdivisions: u32) -> Model<f32> {
     let mut b = ModelBuilder::new();
     let opts = SoftBodyOptions {
         gas: Gas::Pressure(2000.0),
-        fracture: Some(Breakable { strain_limit: 0.5, load_limit: 10.0, sealed: false }),
+        fracture: Some(Breakable { strain_limit: 0.5, load_limit: 10.0, sealed: false, ..Default::default() }),
         ..Default::default()
     };
     b.add_soft_body(&Mesh::icosphere(0.3, subdivisions), &opts).unwrap();

@@ -182,8 +182,9 @@ impl<R: Real> World<R> {
             return Ok(());
         }
         self.since_fracture = (0, 0.0);
-        // A GPU knows whether a limit was passed; a body with openings leaks whatever happened.
-        if !self.solver.may_have_fracture_candidates() && self.model.openings.is_empty() {
+        // A GPU knows whether a limit was passed; a body with openings leaks, and a pump pumps, whatever happened.
+        let pumping = self.model.body_gas_inflow.iter().any(|&q| q > R::ZERO);
+        if !self.solver.may_have_fracture_candidates() && self.model.openings.is_empty() && !pumping {
             return Ok(());
         }
         self.solver.sync_state(&mut self.state)?;

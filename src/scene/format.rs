@@ -82,8 +82,53 @@ pub enum Pin {
     TopCorners,
     /// The whole top edge.
     TopEdge,
+    /// The whole bottom edge.
+    BottomEdge,
+    /// The whole left edge (the first column).
+    LeftEdge,
+    /// The whole right edge (the last column).
+    RightEdge,
     /// Nothing.
     None,
+}
+
+impl Pin {
+    /// The particles of an `nx` × `ny` cloth grid (row 0 at the top) this names.
+    pub fn particles(self, nx: usize, ny: usize) -> Vec<usize> {
+        match self {
+            Pin::TopCorners => vec![0, nx - 1],
+            Pin::TopEdge => (0..nx).collect(),
+            Pin::BottomEdge => ((ny - 1) * nx..ny * nx).collect(),
+            Pin::LeftEdge => (0..ny).map(|j| j * nx).collect(),
+            Pin::RightEdge => (0..ny).map(|j| j * nx + nx - 1).collect(),
+            Pin::None => Vec::new(),
+        }
+    }
+}
+
+/// `[[body.handle]]`: particles of a body moved on a path (a moving pin; see [`fissure_core::Handle`]). Either
+/// `velocity` (with `start` and `stop`) or `path`.
+#[derive(Clone, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct HandleSection {
+    /// Cloth: which particles (`left_edge`, `right_edge`, `top_edge`, `bottom_edge`, `top_corners`).
+    #[serde(default)]
+    pub pin: Option<Pin>,
+    /// Any body: the particles by vertex index (of the body's mesh).
+    #[serde(default)]
+    pub vertices: Option<Vec<usize>>,
+    /// Velocity \[m/s\] from `start` to `stop`.
+    #[serde(default)]
+    pub velocity: Option<[f64; 3]>,
+    /// When the handle starts moving \[s\]. Default 0.
+    #[serde(default)]
+    pub start: f64,
+    /// When it stops \[s\]. Default: the scene's duration.
+    #[serde(default)]
+    pub stop: Option<f64>,
+    /// Keys `[time, x, y, z]`: the offset \[m\] from the start position at each time \[s\], linear between.
+    #[serde(default)]
+    pub path: Option<Vec<[f64; 4]>>,
 }
 
 /// `[[collider]] shape`.
@@ -161,6 +206,10 @@ pub struct FractureSection {
     pub gas_density: Option<f64>,
     /// Simulated time before anything may break \[s\]. Default 0.
     pub start_time: Option<f64>,
+    /// Most spring-mode splits per body per step. Default 1.
+    pub splits_per_body: Option<usize>,
+    /// Least time between new cracks in one body \[s\]. Default: its wave-crossing time.
+    pub nucleation_interval: Option<f64>,
 }
 
 /// `[[body]]`: a soft body (closed, optionally with gas).
@@ -220,15 +269,28 @@ pub struct BodySection {
     /// Gas pressure at rest \[Pa\]; 0: no gas. Default 2000 for closed bodies; a cloth has none.
     #[serde(default)]
     pub pressure: Option<f64>,
+    /// A pump: gas added per second while the body is whole, as `nRT` \[Pa·m³/s\]. Default 0.
+    #[serde(default)]
+    pub inflow: Option<f64>,
     /// Strain limit of the springs (spring mode).
     #[serde(default)]
     pub strain_limit: Option<f64>,
     /// Load limit of the vertices \[N\] (core mode).
     #[serde(default)]
     pub load_limit: Option<f64>,
+    /// Tear strength \[N/m\]: force per unit length of crack at which the membrane tears (spring mode).
+    #[serde(default)]
+    pub tear_strength: Option<f64>,
     /// Keep the gas when punctured.
     #[serde(default)]
     pub sealed: bool,
+    /// Moving pins.
+    #[serde(default)]
+    pub handle: Vec<HandleSection>,
+    /// Cuts made before the run: pairs of vertex indices (of the body's mesh) whose spring is split in spring
+    /// mode, as a notch or a slit is cut into a specimen before it is loaded.
+    #[serde(default)]
+    pub cuts: Vec<[usize; 2]>,
     /// Collide with the other bodies in contact (and with pieces broken off this one). Default false.
     #[serde(default)]
     pub contact: bool,
@@ -255,10 +317,12 @@ impl BodySection {
 
     /// How the body breaks: `None` unless a limit (or `sealed`) is given; a missing limit is infinite (off).
     pub(super) fn breakable(&self) -> Option<Breakable> {
-        (self.strain_limit.is_some() || self.load_limit.is_some() || self.sealed).then(|| Breakable {
+        let any = self.strain_limit.is_some() || self.load_limit.is_some() || self.tear_strength.is_some();
+        (any || self.sealed).then(|| Breakable {
             strain_limit: self.strain_limit.unwrap_or(f64::INFINITY),
             load_limit: self.load_limit.unwrap_or(f64::INFINITY),
             sealed: self.sealed,
+            tear_strength: self.tear_strength.unwrap_or(f64::INFINITY),
         })
     }
 }

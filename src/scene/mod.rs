@@ -13,6 +13,8 @@
 //! [fracture]                        # optional: the fracture pass's settings
 //! averaged_window = 0.002           # \[s\]; omit for the instantaneous trigger
 //! max_events_per_step = 8
+//! splits_per_body = 1               # spring-mode splits per body per step: a crack advances an edge a step
+//! nucleation_interval = 0.005       # \[s\] between new cracks in a body (default: its wave-crossing time)
 //!
 //! [[body]]
 //! shape = "icosphere"               # icosphere | cuboid | obj | cloth
@@ -25,6 +27,8 @@
 //! pressure = 3000.0                 # \[Pa\]; 0: no gas
 //! strain_limit = 0.3                # optional: spring mode
 //! load_limit = 4.0                  # optional: core mode \[N\]
+//! tear_strength = 450.0             # optional: spring mode, force per unit length of crack \[N/m\]
+//! inflow = 60.0                     # optional: a pump, nRT added per second while whole \[Pa·m³/s\]
 //! contact = true                    # optional: collide with the other bodies in contact (default false)
 //! self_collision = false            # optional: and with itself (implies contact)
 //! thickness = 0.01                  # optional \[m\]: gap kept (default 0.2 × mean edge length)
@@ -36,7 +40,14 @@
 //! width = 1.0                       # \[m\]; the particles are width / (across - 1) apart
 //! orientation = "vertical"          # vertical (in the xy plane, facing +z) | horizontal (in the xz plane)
 //! position = [0.0, 1.6, 0.0]        # \[m\] the middle of the top edge (vertical) or of the sheet (horizontal)
-//! pin = "top_corners"               # top_corners | top_edge | none
+//! pin = "top_corners"               # top_corners | top_edge | bottom_edge | left_edge | right_edge | none
+//! cuts = [[15, 16]]                 # optional: springs (vertex pairs) cut before the run, a notch
+//!
+//! [[body.handle]]                   # optional, any number: a moving pin
+//! pin = "left_edge"                 # cloth edges as for `pin`, or `vertices = [0, 1, ...]`
+//! velocity = [-0.05, 0.0, 0.0]      # \[m/s\] from `start` to `stop` \[s\]; or `path = [[t, x, y, z], ...]`
+//! start = 0.2
+//! stop = 2.0
 //! mass = 0.3                        # \[kg\]
 //! stiffness = 400.0                 # structural springs, membrane E·h \[N/m\]
 //! shear = 100.0                     # optional: shear springs \[N/m\]
@@ -70,7 +81,9 @@ const BODY_KEYS: &[(&str, &str)] = &[
     ("damping", "damping_ratio"),
     ("fracture.strain_limit", "strain_limit"),
     ("fracture.load_limit", "load_limit"),
+    ("fracture.tear_strength", "tear_strength"),
     ("spacing", "width"),
+    ("gas_inflow", "inflow"),
 ];
 
 /// A scene that could not be read or built.
@@ -215,6 +228,8 @@ impl Scene {
             discharge_coefficient: f.discharge_coefficient.unwrap_or(d.discharge_coefficient),
             gas_density: f.gas_density.unwrap_or(d.gas_density),
             start_time: f.start_time.unwrap_or(d.start_time),
+            splits_per_body: f.splits_per_body.unwrap_or(d.splits_per_body),
+            nucleation_interval: f.nucleation_interval.or(d.nucleation_interval),
             ..d
         }
     }
@@ -296,6 +311,7 @@ impl Scene {
                     0.0 => Gas::None,
                     p => Gas::Pressure(p),
                 },
+                gas_inflow: body.inflow.unwrap_or(0.0),
                 velocity: v3(body.velocity),
                 fracture,
                 ..Default::default()
@@ -304,6 +320,7 @@ impl Scene {
                 .add_soft_body(&mesh.translated(v3(body.position)), &opts)
                 .map_err(|e| self.core_error(&format!("body[{k}]"), e, BODY_KEYS))?;
             self.set_contact(&mut b, k, body, h.index)?;
+            self.add_handles(&mut b, k, body, h, None)?;
         }
         if let Some(h) = self.room_half_width {
             if !(h.is_finite() && h > 0.0) {
@@ -386,6 +403,7 @@ impl Scene {
             ("cells", body.cells.is_some()),
             ("file", body.file.is_some()),
             ("sealed", body.sealed),
+            ("inflow", body.inflow.is_some()),
         ] {
             if set {
                 return Err(self.bad(key(f), "does not apply to a cloth"));
@@ -402,11 +420,7 @@ impl Scene {
                 o + DVec3::new(q.x - 0.5 * width, 0.0, -q.y - 0.5 * height)
             }
         };
-        let pins = match body.pin.unwrap_or_default() {
-            Pin::TopCorners => vec![0, nx - 1],
-            Pin::TopEdge => (0..nx).collect(),
-            Pin::None => Vec::new(),
-        };
+        let pins = body.pin.unwrap_or_default().particles(nx, ny);
         let opts = ClothOptions {
             mass: Mass::Total(body.mass),
             stiffness: Stiffness::Membrane(body.stiffness),
@@ -423,7 +437,52 @@ impl Scene {
         let h = b
             .add_cloth_grid(nx, ny, spacing, place, &opts)
             .map_err(|e| self.core_error(&format!("body[{k}]"), e, BODY_KEYS))?;
-        self.set_contact(b, k, body, h.index)
+        self.set_contact(b, k, body, h.index)?;
+        self.add_handles(b, k, body, h, Some([nx, ny]))
+    }
+
+    /// The body's `[[body.handle]]` tables (moving pins). `grid`: a cloth's resolution, for `pin`.
+    fn add_handles(
+        &self,
+        b: &mut ModelBuilder,
+        k: usize,
+        body: &BodySection,
+        h: BodyHandle,
+        grid: Option<[usize; 2]>,
+    ) -> Result<(), SceneError> {
+        for (j, hs) in body.handle.iter().enumerate() {
+            let key = |f: &str| format!("body[{k}].handle[{j}].{f}");
+            let mut particles = match (hs.pin, &hs.vertices, grid) {
+                (Some(_), Some(_), _) => return Err(self.bad(key("pin"), "give `pin` or `vertices`, not both")),
+                (Some(p), None, Some([nx, ny])) => p.particles(nx, ny),
+                (Some(_), None, None) => {
+                    return Err(self.bad(key("pin"), "names cloth edges; give `vertices` for this body"));
+                }
+                (None, Some(v), _) => v.clone(),
+                (None, None, _) => return Err(self.bad(key("pin"), "is required (or `vertices`)")),
+            };
+            if let Some(&bad) = particles.iter().find(|&&i| i >= h.particle_count) {
+                return Err(
+                    self.bad(key("vertices"), format!("{bad} is past the body's {} vertices", h.particle_count))
+                );
+            }
+            particles.iter_mut().for_each(|i| *i += h.first_particle);
+            let handle = match (hs.velocity, &hs.path) {
+                (Some(_), Some(_)) => return Err(self.bad(key("path"), "give `velocity` or `path`, not both")),
+                (Some(v), None) => {
+                    let stop = hs.stop.unwrap_or(self.solver.duration);
+                    if !(hs.start.is_finite() && stop.is_finite() && stop > hs.start) {
+                        return Err(self.bad(key("stop"), format!("must be after `start` ({}), got {stop}", hs.start)));
+                    }
+                    Handle::linear(v3(v), hs.start, stop)
+                }
+                (None, Some(p)) => Handle { keys: p.iter().map(|&[t, x, y, z]| (t, DVec3::new(x, y, z))).collect() },
+                (None, None) => return Err(self.bad(key("velocity"), "is required (or `path`)")),
+            };
+            b.add_handle(&particles, handle)
+                .map_err(|e| self.core_error(&format!("body[{k}].handle[{j}]"), e, &[("handle key time", "path")]))?;
+        }
+        Ok(())
     }
 
     /// The body's `contact`, `self_collision`, `thickness` and `contact_friction` keys.
@@ -456,6 +515,30 @@ impl Scene {
             .builder()?
             .finalize::<R>()
             .map_err(|e| SceneError::Model { path: self.path.clone(), source: Box::new(e) })?;
-        Ok(World::new(model, self.solver_config()).with_fracture(self.fracture_config()))
+        let mut world = World::new(model, self.solver_config()).with_fracture(self.fracture_config());
+        for (k, body) in self.bodies.iter().enumerate() {
+            let key = || format!("body[{k}].cuts");
+            if body.cuts.is_empty() {
+                continue;
+            }
+            let owner = &world.model.particle_body;
+            let first = owner.iter().position(|&b| b == k as u32).unwrap_or(0);
+            let count = owner.iter().filter(|&&b| b == k as u32).count();
+            for &[i, j] in &body.cuts {
+                if i.max(j) >= count {
+                    return Err(self.bad(key(), format!("[{i}, {j}]: the body has {count} vertices")));
+                }
+                let sp = fissure_core::fracture::spring_between(&world.model, (first + i) as u32, (first + j) as u32);
+                let Some(sp) = sp else {
+                    return Err(self.bad(key(), format!("[{i}, {j}]: no spring joins these vertices")));
+                };
+                let broken = world.break_spring(sp as usize).map_err(|e| self.bad(key(), e.to_string()))?;
+                if broken.is_empty() {
+                    return Err(self.bad(key(), format!("[{i}, {j}]: the spring cannot be cut (too short?)")));
+                }
+            }
+            world.events.clear();
+        }
+        Ok(world)
     }
 }

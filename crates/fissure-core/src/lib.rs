@@ -30,7 +30,7 @@ pub use fracture::{
 pub use glam;
 pub use mesh::Mesh;
 pub use model::{
-    BodyHandle, BodyKind, BodyRow, Breakable, ClothOptions, Damping, DampingModel, Energy, Gas, Mass, Model,
+    BodyHandle, BodyKind, BodyRow, Breakable, ClothOptions, Damping, DampingModel, Energy, Gas, Handle, Mass, Model,
     ModelBuilder, Opening, ParticleRow, SoftBodyOptions, SpringKind, SpringRow, SpringRun, State, Stiffness, TriRow,
 };
 pub use parry3d;

@@ -47,6 +47,7 @@ fn case(seed: u64) -> Case {
             strain_limit: log_uniform(&mut rng, 0.005, 0.5),
             load_limit: log_uniform(&mut rng, 1e-3, 10.0),
             sealed: rng.next_u64() % 2 == 0,
+            ..Default::default()
         }),
     };
     Case {

@@ -110,6 +110,11 @@ pub enum GpuError {
         "contact between surfaces (ModelBuilder::set_contact, the scene keys `contact`/`self_collision`) runs on the CPU solver only for now (fissure_core::CpuSolver, `--backend cpu`)"
     )]
     UnsupportedContact,
+    /// The model has moving pins, which have no GPU kernel yet.
+    #[error(
+        "moving pins (ModelBuilder::add_handle, the scene's `[[body.handle]]`) run on the CPU solver only for now (fissure_core::CpuSolver, `--backend cpu`)"
+    )]
+    UnsupportedHandles,
     /// A collider could not be prepared.
     #[error("collider {index}: {message}")]
     Collider {

@@ -98,7 +98,8 @@ impl ModelBuilder {
     #[pyo3(signature = (mesh, *, mass = None, area_density = None, particle_mass = None, stiffness = None,
         spring_stiffness = None, damping_ratio = None, spring_damping = None, bending = None, pressure = None,
         gas_amount = None, external_pressure = 0.0, velocity = (0.0, 0.0, 0.0), drag = 0.0, lift = 0.0,
-        reorient = true, strain_limit = None, load_limit = None, sealed = false))]
+        reorient = true, strain_limit = None, load_limit = None, sealed = false, tear_strength = None,
+        gas_inflow = 0.0))]
     #[allow(clippy::too_many_arguments)]
     fn add_soft_body<'py>(
         &mut self,
@@ -122,6 +123,8 @@ impl ModelBuilder {
         strain_limit: Option<f64>,
         load_limit: Option<f64>,
         sealed: bool,
+        tear_strength: Option<f64>,
+        gas_inflow: f64,
     ) -> PyResult<Bound<'py, PyDict>> {
         let d = fissure::SoftBodyOptions::default();
         let gas = match (pressure, gas_amount) {
@@ -138,11 +141,12 @@ impl ModelBuilder {
             damping: damping_from(damping_ratio, spring_damping, d.damping)?,
             bending: bending.map(Stiffness::Membrane),
             gas,
+            gas_inflow,
             external_pressure,
             aero: Aero { drag, lift },
             reorient,
             velocity: vec3("velocity", velocity)?,
-            fracture: breakable_from(strain_limit, load_limit, sealed),
+            fracture: breakable_from(strain_limit, load_limit, tear_strength, sealed),
         };
         let h = self.inner.add_soft_body(&mesh.inner, &opts).map_err(value_err)?;
         handle_dict(py, h)
@@ -151,7 +155,7 @@ impl ModelBuilder {
     /// Adds a cloth from any mesh (edge springs, optional bending springs, pins by vertex index).
     #[pyo3(signature = (mesh, *, mass = None, area_density = None, particle_mass = None, stiffness = None,
         spring_stiffness = None, bending = None, damping_ratio = None, spring_damping = None, pins = vec![],
-        drag = 1.0, lift = 0.5, strain_limit = None, load_limit = None))]
+        drag = 1.0, lift = 0.5, strain_limit = None, load_limit = None, tear_strength = None))]
     #[allow(clippy::too_many_arguments)]
     fn add_cloth<'py>(
         &mut self,
@@ -170,6 +174,7 @@ impl ModelBuilder {
         lift: f64,
         strain_limit: Option<f64>,
         load_limit: Option<f64>,
+        tear_strength: Option<f64>,
     ) -> PyResult<Bound<'py, PyDict>> {
         let d = fissure::ClothOptions::default();
         let opts = fissure::ClothOptions {
@@ -180,7 +185,7 @@ impl ModelBuilder {
             damping: damping_from(damping_ratio, spring_damping, d.damping)?,
             pins,
             aero: Aero { drag, lift },
-            fracture: breakable_from(strain_limit, load_limit, false),
+            fracture: breakable_from(strain_limit, load_limit, tear_strength, false),
         };
         let h = self.inner.add_cloth(&mesh.inner, &opts).map_err(value_err)?;
         handle_dict(py, h)
@@ -191,7 +196,7 @@ impl ModelBuilder {
     #[pyo3(signature = (nx, ny, spacing, *, origin = (0.0, 0.0, 0.0), down = (0.0, -1.0, 0.0),
         mass = None, area_density = None, particle_mass = None, spring_stiffness = 1000.0, shear = 1000.0,
         bending = 1000.0, damping_ratio = None, spring_damping = None, pins = vec![], drag = 1.0, lift = 0.5,
-        strain_limit = None, load_limit = None))]
+        strain_limit = None, load_limit = None, tear_strength = None))]
     #[allow(clippy::too_many_arguments)]
     fn add_cloth_grid<'py>(
         &mut self,
@@ -214,6 +219,7 @@ impl ModelBuilder {
         lift: f64,
         strain_limit: Option<f64>,
         load_limit: Option<f64>,
+        tear_strength: Option<f64>,
     ) -> PyResult<Bound<'py, PyDict>> {
         let d = fissure::ClothOptions::default();
         let o = vec3("origin", origin)?;
@@ -230,12 +236,43 @@ impl ModelBuilder {
             damping: damping_from(damping_ratio, spring_damping, d.damping)?,
             pins,
             aero: Aero { drag, lift },
-            fracture: breakable_from(strain_limit, load_limit, false),
+            fracture: breakable_from(strain_limit, load_limit, tear_strength, false),
         };
         // Grid rows run along -y in the mesh generator: map (x, -row) to origin + x X + row down.
         let place = |p: DVec3| o + DVec3::X * p.x + down * (-p.y);
         let h = self.inner.add_cloth_grid(nx, ny, spacing, place, &opts).map_err(value_err)?;
         handle_dict(py, h)
+    }
+
+    /// Moves `particles` (indices into the model) on a path: a moving pin. Either `velocity` \[m/s\] from
+    /// `start` to `stop` \[s\] (still before and after), or `path`, a list of `(time, (x, y, z))` offsets \[s, m\]
+    /// from the start position, linear between. The particles are pinned; returns the handle's index.
+    #[pyo3(signature = (particles, *, velocity = None, start = 0.0, stop = None, path = None))]
+    fn add_handle(
+        &mut self,
+        particles: Vec<usize>,
+        velocity: Option<(f64, f64, f64)>,
+        start: f64,
+        stop: Option<f64>,
+        path: Option<Vec<PathKey>>,
+    ) -> PyResult<usize> {
+        let handle = match (velocity, stop, path) {
+            (Some(v), Some(stop), None) => {
+                if !(start.is_finite() && stop.is_finite() && stop > start) {
+                    return Err(PyValueError::new_err(format!("stop must be after start ({start} s), got {stop}")));
+                }
+                fissure::Handle::linear(vec3("velocity", v)?, start, stop)
+            }
+            (Some(_), None, None) => return Err(PyValueError::new_err("velocity needs stop [s]")),
+            (None, None, Some(p)) => {
+                let keys = p.into_iter().map(|(t, d)| Ok((t, vec3("path", d)?))).collect::<PyResult<Vec<_>>>()?;
+                fissure::Handle { keys }
+            }
+            _ => return Err(PyValueError::new_err("give velocity (with stop) or path, not both")),
+        };
+        self.inner
+            .add_handle(&particles, handle)
+            .map_err(|e| core_err(e, &[("handle particle", "particles"), ("handle key time", "path")]))
     }
 
     /// Switches contact on for body `body` (the `index` of the dict an `add_*` call returned): its surface
@@ -362,18 +399,23 @@ impl ModelBuilder {
     }
 }
 
+/// One key of a handle's path: `(time [s], (x, y, z) [m])`.
+type PathKey = (f64, (f64, f64, f64));
+
 /// Fracture options from keyword arguments: `None` when nothing can break and nothing is sealed.
 pub(crate) fn breakable_from(
     strain_limit: Option<f64>,
     load_limit: Option<f64>,
+    tear_strength: Option<f64>,
     sealed: bool,
 ) -> Option<fissure::Breakable> {
-    if strain_limit.is_none() && load_limit.is_none() && !sealed {
+    if strain_limit.is_none() && load_limit.is_none() && tear_strength.is_none() && !sealed {
         return None;
     }
     Some(fissure::Breakable {
         strain_limit: strain_limit.unwrap_or(f64::INFINITY),
         load_limit: load_limit.unwrap_or(f64::INFINITY),
         sealed,
+        tear_strength: tear_strength.unwrap_or(f64::INFINITY),
     })
 }

@@ -89,11 +89,12 @@ impl World {
 impl World {
     /// A world at the model's initial state. Fracture settings (used when the model has breakable bodies):
     /// `max_events_per_step`, `averaged_window` \[s\] (None: instantaneous trigger), `discharge_coefficient`,
-    /// `gas_density` \[kg/m^3\], `start_time` \[s\].
+    /// `gas_density` \[kg/m^3\], `start_time` \[s\], `splits_per_body` (spring-mode splits per body per step),
+    /// `nucleation_interval` \[s\] (least time between new cracks in a body; None: its wave-crossing time).
     #[new]
     #[pyo3(signature = (model, *, integrator = Integrator::SYMPLECTIC_EULER, cg_tolerance = 1e-5, cg_max_iterations = 200, substep_safety = None,
         max_events_per_step = 32, averaged_window = None, discharge_coefficient = 0.6, gas_density = 1.2,
-        start_time = 0.0))]
+        start_time = 0.0, splits_per_body = 1, nucleation_interval = None))]
     #[allow(clippy::too_many_arguments)]
     fn new(
         py: Python<'_>,
@@ -107,6 +108,8 @@ impl World {
         discharge_coefficient: f64,
         gas_density: f64,
         start_time: f64,
+        splits_per_body: usize,
+        nucleation_interval: Option<f64>,
     ) -> PyResult<Self> {
         let config = fissure::FractureConfig {
             trigger: averaged_window.map_or(fissure::Trigger::Instant, |window| fissure::Trigger::Averaged { window }),
@@ -114,6 +117,8 @@ impl World {
             discharge_coefficient,
             gas_density,
             start_time,
+            splits_per_body,
+            nucleation_interval,
             ..Default::default()
         };
         config.validate().map_err(|e| core_err(e, &[]))?;

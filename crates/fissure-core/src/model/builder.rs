@@ -10,7 +10,8 @@ pub struct ModelBuilder {
     mass: Vec<f64>,
     pinned: Vec<bool>,
     particle_body: Vec<u32>,
-    springs: Vec<([u32; 2], f64, f64, f64, SpringKind)>,
+    /// `(ends, rest length, ks, kd, kind, strain limit)`.
+    springs: Vec<([u32; 2], f64, f64, f64, SpringKind, f64)>,
     tris: Vec<[u32; 3]>,
     tri_body: Vec<u32>,
     bodies: Vec<BodyDesc>,
@@ -18,12 +19,14 @@ pub struct ModelBuilder {
     damping_model: DampingModel,
     wind: Option<WindField>,
     colliders: Vec<Collider>,
+    handles: Vec<(Handle, Vec<usize>)>,
 }
 
 #[derive(Clone, Debug)]
 struct BodyDesc {
     kind: BodyKind,
     gas: f64,
+    gas_inflow: f64,
     external_pressure: f64,
     rest_volume: f64,
     aero: Aero,
@@ -77,6 +80,7 @@ impl ModelBuilder {
             damping_model: DampingModel::Projected,
             wind: None,
             colliders: Vec::new(),
+            handles: Vec::new(),
         }
     }
 
@@ -134,6 +138,26 @@ impl ModelBuilder {
         }
     }
 
+    /// Moves `particles` on `handle`'s path (a moving pin; see [`Handle`]): they are pinned and the solver
+    /// moves them. Returns the handle's index. Errors: a particle out of range or already on a handle, a bad
+    /// path.
+    pub fn add_handle(&mut self, particles: &[usize], handle: Handle) -> Result<usize, ModelError> {
+        handle.check()?;
+        let n = self.q.len();
+        if let Some(&bad) = particles.iter().find(|&&i| i >= n) {
+            return Err(ModelError::ParticleOutOfRange { name: "handle particle", index: bad, count: n });
+        }
+        if let Some(&twice) = particles.iter().find(|&&i| self.handles.iter().any(|(_, p)| p.contains(&i))) {
+            return Err(ModelError::Parameter {
+                name: "handle particle",
+                value: twice as f64,
+                expected: "on one handle at most",
+            });
+        }
+        self.handles.push((handle, particles.to_vec()));
+        Ok(self.handles.len() - 1)
+    }
+
     /// Number of particles so far.
     pub fn particle_count(&self) -> usize {
         self.q.len()
@@ -171,7 +195,12 @@ impl ModelBuilder {
         check_nonneg("damping", damping)?;
         let l = (self.q[j] - self.q[i]).length();
         check_pos("spring rest length", l)?;
-        self.springs.push(([i as u32, j as u32], l, stiffness, damping, SpringKind::Edge));
+        let (bi, bj) = (self.particle_body[i], self.particle_body[j]);
+        let limit = match self.bodies.get(bi as usize).and_then(|b| b.fracture) {
+            Some(f) if bi == bj => f.strain_limit,
+            _ => f64::INFINITY,
+        };
+        self.springs.push(([i as u32, j as u32], l, stiffness, damping, SpringKind::Edge, limit));
         Ok(self.springs.len() - 1)
     }
 
@@ -195,6 +224,14 @@ impl ModelBuilder {
             }
         }
         check_nonneg("external_pressure", opts.external_pressure)?;
+        check_nonneg("gas_inflow", opts.gas_inflow)?;
+        if opts.gas_inflow > 0.0 && !gas {
+            return Err(ModelError::Parameter {
+                name: "gas_inflow",
+                value: opts.gas_inflow,
+                expected: "0 for a body without gas (give it a pressure or gas amount)",
+            });
+        }
         let v0 = if topo.is_closed() { mesh.signed_volume() } else { 0.0 };
         let nrt = match opts.gas {
             Gas::None => 0.0,
@@ -223,6 +260,7 @@ impl ModelBuilder {
         )?;
         let b = &mut self.bodies[h.index];
         b.gas = nrt;
+        b.gas_inflow = opts.gas_inflow;
         b.external_pressure = opts.external_pressure;
         b.rest_volume = v0;
         if !opts.velocity.is_finite() {
@@ -396,7 +434,7 @@ impl ModelBuilder {
         let push = |i: usize, j: usize, s: Stiffness, area_sum: f64, kind: SpringKind, out: &mut Vec<_>| {
             let l = (p[j] - p[i]).length();
             let k = resolve(s, l, area_sum);
-            out.push(([i as u32 + base, j as u32 + base], l, k, damp(k, i, j), kind));
+            out.push(([i as u32 + base, j as u32 + base], l, k, damp(k, i, j), kind, area_sum / l));
         };
         let mut new_springs = Vec::new();
         for (e, &[a, b]) in topo.edges.iter().enumerate() {
@@ -416,25 +454,30 @@ impl ModelBuilder {
         }
         match grid {
             Some(g) => {
+                // The area of one cell: the other diagonal stands for its quad, as the mesh diagonal does for its
+                // two triangles, and a bending spring (two cells long) for one cell's area, as a bending spring
+                // across two triangles does elsewhere. (An area of 0 here would give them no stiffness at all
+                // under `Stiffness::Membrane`.)
+                let cell = (p[g.v(1, 0)] - p[g.v(0, 0)]).length() * (p[g.v(0, 1)] - p[g.v(0, 0)]).length();
                 if let Some(s) = shear {
                     // The other diagonal of each quad.
                     for j in 0..g.ny - 1 {
                         for i in 0..g.nx - 1 {
                             let (p00, p10, p01, p11) = (g.v(i, j), g.v(i + 1, j), g.v(i, j + 1), g.v(i + 1, j + 1));
                             let (a, b) = if (i + j) % 2 == 0 { (p10, p01) } else { (p00, p11) };
-                            push(a, b, s, 0.0, SpringKind::Shear, &mut new_springs);
+                            push(a, b, s, cell, SpringKind::Shear, &mut new_springs);
                         }
                     }
                 }
                 if let Some(s) = bending {
                     for j in 0..g.ny {
                         for i in 0..g.nx - 2 {
-                            push(g.v(i, j), g.v(i + 2, j), s, 0.0, SpringKind::Bend, &mut new_springs);
+                            push(g.v(i, j), g.v(i + 2, j), s, cell, SpringKind::Bend, &mut new_springs);
                         }
                     }
                     for j in 0..g.ny - 2 {
                         for i in 0..g.nx {
-                            push(g.v(i, j), g.v(i, j + 2), s, 0.0, SpringKind::Bend, &mut new_springs);
+                            push(g.v(i, j), g.v(i, j + 2), s, cell, SpringKind::Bend, &mut new_springs);
                         }
                     }
                 }
@@ -457,6 +500,25 @@ impl ModelBuilder {
                 }
             }
         }
+        if let Some(f) = &fracture {
+            // The pushes left each spring's membrane width in its last field; now its strain limit (see
+            // `Breakable::tear_strength`). Springs on no triangle (bending, the second diagonal) stand for no strip
+            // of membrane of their own: they take the mean tear strain of the edge springs, so they break as a
+            // crack opens across them instead of holding its sides together.
+            let edge = |sp: &(_, f64, f64, f64, SpringKind, f64)| sp.4 == SpringKind::Edge;
+            let tear: Vec<f64> = new_springs.iter().map(|sp| f.spring_strain_limit(sp.2, sp.1, sp.5)).collect();
+            let (sum, count) = new_springs
+                .iter()
+                .zip(&tear)
+                .filter(|(sp, t)| edge(sp) && t.is_finite())
+                .fold((0.0, 0), |(s, c), (_, t)| (s + t, c + 1));
+            let mean = if count > 0 { sum / count as f64 } else { f.strain_limit };
+            for (sp, t) in new_springs.iter_mut().zip(tear) {
+                sp.5 = if edge(sp) { t } else { mean.min(f.strain_limit) };
+            }
+        } else {
+            new_springs.iter_mut().for_each(|sp| sp.5 = f64::INFINITY);
+        }
         if grid.is_some() {
             // Order grid springs by direction, then by first particle: every row (or the whole sheet) of one
             // direction becomes a run of springs `(i0 + k, j0 + k)`, which the spring kernel walks as contiguous
@@ -472,6 +534,7 @@ impl ModelBuilder {
         self.bodies.push(BodyDesc {
             kind,
             gas: 0.0,
+            gas_inflow: 0.0,
             external_pressure: 0.0,
             rest_volume: 0.0,
             aero,
@@ -505,6 +568,14 @@ impl ModelBuilder {
         let r = R::from_f64;
         let v = R::V::from_dvec3;
         let breakable = |p: u32| self.bodies.get(p as usize).and_then(|b| b.fracture).unwrap_or_default();
+        let mut particle_handle = vec![NONE; n];
+        let mut pinned = self.pinned.clone();
+        for (h, (_, particles)) in self.handles.iter().enumerate() {
+            for &i in particles {
+                particle_handle[i] = h as u32;
+                pinned[i] = true;
+            }
+        }
         let mut model = Model {
             particle_q0: self.q.iter().map(|&x| v(x)).collect(),
             particle_qd0: self.qd.iter().map(|&x| v(x)).collect(),
@@ -512,7 +583,7 @@ impl ModelBuilder {
             particle_inv_mass: self
                 .mass
                 .iter()
-                .zip(&self.pinned)
+                .zip(&pinned)
                 // The inverse of the rounded mass, so `inv_mass == 1 / mass` holds exactly in `R` (fracture re-derives
                 // it that way and `check_invariants` checks it).
                 .map(|(&m, &p)| if p || m == 0.0 { R::ZERO } else { R::ONE / r(m) })
@@ -528,7 +599,7 @@ impl ModelBuilder {
                 .iter()
                 .map(|s| {
                     let (bi, bj) = (self.particle_body[s.0[0] as usize], self.particle_body[s.0[1] as usize]);
-                    if bi == bj { r(breakable(bi).strain_limit) } else { R::infinity() }
+                    if bi == bj { r(s.5) } else { R::infinity() }
                 })
                 .collect(),
             particle_load_limit: self.particle_body.iter().map(|&b| r(breakable(b).load_limit)).collect(),
@@ -536,6 +607,7 @@ impl ModelBuilder {
             tri_body: self.tri_body.clone(),
             body_kind: self.bodies.iter().map(|b| b.kind).collect(),
             body_gas_amount: self.bodies.iter().map(|b| r(b.gas)).collect(),
+            body_gas_inflow: self.bodies.iter().map(|b| r(b.gas_inflow)).collect(),
             body_pressure_external: self.bodies.iter().map(|b| r(b.external_pressure)).collect(),
             body_rest_volume: self.bodies.iter().map(|b| r(b.rest_volume)).collect(),
             body_drag: self.bodies.iter().map(|b| r(b.aero.drag)).collect(),
@@ -546,6 +618,8 @@ impl ModelBuilder {
             body_self_contact: self.bodies.iter().map(|b| b.contact.is_some_and(|c| c.self_collision)).collect(),
             body_contact_friction: self.bodies.iter().map(|b| r(b.contact.map_or(0.0, |c| c.friction))).collect(),
             particle_origin: (0..n as u32).collect(),
+            particle_handle,
+            handles: self.handles.iter().map(|(h, _)| h.clone()).collect(),
             openings: Vec::new(),
             breakable: false,
             spring_runs: SpringRun::detect_if_useful(&self.springs.iter().map(|s| s.0).collect::<Vec<_>>()),

@@ -103,8 +103,8 @@ pub(crate) fn add_particle<R: Real>(
     body: u32,
     like: usize,
 ) -> u32 {
-    let (load, origin) = (m.particle_load_limit[like], m.particle_origin[like]);
-    m.push_particle(ParticleRow { q0: x, qd0: v, mass, inv_mass, body, load_limit: load, origin });
+    let (load, origin, handle) = (m.particle_load_limit[like], m.particle_origin[like], m.particle_handle[like]);
+    m.push_particle(ParticleRow { q0: x, qd0: v, mass, inv_mass, body, load_limit: load, origin, handle });
     m.particle_springs.push_row();
     m.particle_tris.push_row();
     s.particle_q.push(x);
@@ -246,6 +246,7 @@ pub(crate) fn new_body<R: Real>(m: &mut Model<R>, parent: u32, anchor: u32) -> u
     m.push_body(BodyRow {
         kind: BodyKind::Cloth,
         gas_amount: R::ZERO,
+        gas_inflow: R::ZERO,
         pressure_external: m.body_pressure_external[p],
         rest_volume: R::ZERO,
         drag: m.body_drag[p],

@@ -23,7 +23,7 @@ mod state;
 pub use builder::ModelBuilder;
 pub use invariants::check_invariants;
 pub use options::{
-    BodyHandle, BodyKind, Breakable, ClothOptions, Damping, DampingModel, Gas, Mass, Opening, SoftBodyOptions,
+    BodyHandle, BodyKind, Breakable, ClothOptions, Damping, DampingModel, Gas, Handle, Mass, Opening, SoftBodyOptions,
     SpringKind, Stiffness,
 };
 pub use state::{Energy, State};
@@ -100,6 +100,8 @@ model_arrays! {
             /// The particle each one was split from by fracture (itself for the builder's particles): contact
             /// ignores pairs of elements that share an origin (see the `contact` module).
             particle_origin / origin: u32,
+            /// The [`Handle`] moving each particle (an index into `handles`), or `u32::MAX` for none.
+            particle_handle / handle: u32,
         }
         group SpringRow<R> ("One spring of a [`Model`]."), push_spring, reserve_springs {
             /// Spring ends `[i, j]`.
@@ -126,6 +128,8 @@ model_arrays! {
             body_kind / kind: BodyKind,
             /// `nRT` \[J\] of each body's gas (0: none).
             body_gas_amount / gas_amount: R,
+            /// Gas pumped in per second while the body has no opening, as `nRT` \[J/s\].
+            body_gas_inflow / gas_inflow: R,
             /// Outside pressure \[Pa\].
             body_pressure_external / pressure_external: R,
             /// Volume at rest \[m^3\] (0 for open bodies). Volumes are clamped at
@@ -167,6 +171,8 @@ model_arrays! {
         wind: Option<WindField>,
         /// Colliders.
         colliders: Vec<Collider>,
+        /// Moving pins; their particles are marked in `particle_handle`.
+        handles: Vec<Handle>,
         }
     }
 }
@@ -252,6 +258,10 @@ impl<R: Real> Model<R> {
     /// True if some body takes part in contact: only then is the contact pass run.
     pub fn has_contact(&self) -> bool {
         self.body_contact_thickness.iter().any(|&h| h > R::ZERO)
+    }
+    /// True if some particles move on a [`Handle`]'s path: only then does the solver move them.
+    pub fn has_handles(&self) -> bool {
+        !self.handles.is_empty()
     }
     /// True if there are colliders: only then is the collision pass run.
     pub fn has_colliders(&self) -> bool {

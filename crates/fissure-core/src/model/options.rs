@@ -81,17 +81,50 @@ pub struct Breakable {
     /// Keep the gas in when the body is punctured (its volume is still taken with caps over the openings).
     /// Default false: gas leaks through the openings.
     pub sealed: bool,
+    /// Tear strength `T` \[N/m\]: the force per unit length of crack at which the membrane tears (spring mode).
+    /// Default infinity (off). Unlike a strain limit on a spring of a given stiffness, it names a property of the
+    /// material, so the same sheet tears at the same load whatever its mesh (the reason Houdini Vellum normalises
+    /// stress). Each spring stands for a strip of membrane of width `w = A / L` (`A`: the area of the triangles it
+    /// spans, `L` its rest length) and carries `k L ε` at strain `ε`; it breaks when that force per unit width
+    /// passes `T`, at strain `T w / (k L)`. With [`Stiffness::Membrane`]`(E·h)` (`k = E·h A / L²`) that is the
+    /// strain `T / (E·h)` on every spring: a sheet pulled uniaxially tears at `T / (E·h)` strain, at a pull of
+    /// about `T` per unit width (more where shear and bending springs stiffen the lattice: a grid cloth with
+    /// `shear = stiffness / 4` and light bending tears at 1.03 to 1.11 `T` on three meshes and three steps: the
+    /// strip test of `tests/tearing.rs`). The tighter of this and `strain_limit` holds.
+    pub tear_strength: f64,
 }
 
 impl Default for Breakable {
     fn default() -> Self {
-        Breakable { strain_limit: f64::INFINITY, load_limit: f64::INFINITY, sealed: false }
+        Breakable {
+            strain_limit: f64::INFINITY,
+            load_limit: f64::INFINITY,
+            sealed: false,
+            tear_strength: f64::INFINITY,
+        }
     }
 }
 
 impl Breakable {
+    /// Strain limit of a spring of stiffness `k` \[N/m\] and rest length `l` \[m\] standing for a strip of membrane
+    /// `width` \[m\] wide: the tighter of `strain_limit` and the tear strength's (see
+    /// [`Breakable::tear_strength`]; a spring that stands for no membrane or has no stiffness gets the strain
+    /// limit alone).
+    pub fn spring_strain_limit(&self, k: f64, l: f64, width: f64) -> f64 {
+        let tear = if self.tear_strength.is_finite() && width > 0.0 && k > 0.0 {
+            self.tear_strength * width / (k * l)
+        } else {
+            f64::INFINITY
+        };
+        self.strain_limit.min(tear)
+    }
+
     pub(super) fn check(&self) -> Result<(), ModelError> {
-        for (name, v) in [("fracture.strain_limit", self.strain_limit), ("fracture.load_limit", self.load_limit)] {
+        for (name, v) in [
+            ("fracture.strain_limit", self.strain_limit),
+            ("fracture.load_limit", self.load_limit),
+            ("fracture.tear_strength", self.tear_strength),
+        ] {
             if v.is_nan() || v <= 0.0 {
                 return Err(ModelError::Parameter { name, value: v, expected: "> 0 (infinity: off)" });
             }
@@ -133,6 +166,9 @@ pub struct SoftBodyOptions {
     pub bending: Option<Stiffness>,
     /// Gas. Default `Pressure(2000.0)` Pa.
     pub gas: Gas,
+    /// A pump: gas added per second while the body is whole, as `nRT` \[J/s = Pa·m³/s\] (a litre per second of
+    /// air at 1 bar is 100). It stops at the first opening (a burst balloon is off its pump). Default 0.
+    pub gas_inflow: f64,
     /// Pressure outside \[Pa\], subtracted from the gas pressure. Default 0 (the seed's model).
     pub external_pressure: f64,
     /// Aerodynamic coefficients (only used if the model has wind). Default none.
@@ -153,6 +189,7 @@ impl Default for SoftBodyOptions {
             damping: Damping::Ratio(0.05),
             bending: None,
             gas: Gas::Pressure(2000.0),
+            gas_inflow: 0.0,
             external_pressure: 0.0,
             aero: Aero::NONE,
             reorient: true,
@@ -195,6 +232,59 @@ impl Default for ClothOptions {
             aero: Aero::default(),
             fracture: None,
         }
+    }
+}
+
+/// A moving pin: particles held on a prescribed path (a clamp that pulls a cloth apart, a hand that drags a
+/// body). The path is a list of keys `(time [s], offset [m])`, the offset from where the particles were at the
+/// start, linear between keys and held at the first key's offset before it and at the last key's after it. The
+/// particles are pinned (no force moves them); each step the solver moves them by the path's change over the
+/// step and gives them its velocity, which their springs' damping and contact see. Particles that fracture
+/// splits off a handle particle belong to the same handle.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Handle {
+    /// Keys `(time [s], offset [m])`, times strictly increasing.
+    pub keys: Vec<(f64, DVec3)>,
+}
+
+impl Handle {
+    /// A handle that moves at `velocity` \[m/s\] from `start` to `stop` \[s\] and holds still before and after.
+    pub fn linear(velocity: DVec3, start: f64, stop: f64) -> Handle {
+        Handle { keys: vec![(start, DVec3::ZERO), (stop, velocity * (stop - start))] }
+    }
+
+    /// The offset \[m\] at time `t` \[s\].
+    pub fn offset(&self, t: f64) -> DVec3 {
+        let k = &self.keys;
+        let i = k.partition_point(|&(tk, _)| tk <= t);
+        if i == 0 {
+            return k[0].1;
+        }
+        if i == k.len() {
+            return k[i - 1].1;
+        }
+        let ((t0, a), (t1, b)) = (k[i - 1], k[i]);
+        a + (b - a) * ((t - t0) / (t1 - t0))
+    }
+
+    /// Checks the keys: at least one, finite, times strictly increasing.
+    pub(super) fn check(&self) -> Result<(), ModelError> {
+        if self.keys.is_empty() {
+            return Err(ModelError::Parameter { name: "handle keys", value: 0.0, expected: "at least one key" });
+        }
+        for (k, &(t, d)) in self.keys.iter().enumerate() {
+            if !t.is_finite() || !d.is_finite() {
+                return Err(ModelError::Parameter { name: "handle key", value: k as f64, expected: "finite" });
+            }
+            if k > 0 && t <= self.keys[k - 1].0 {
+                return Err(ModelError::Parameter {
+                    name: "handle key time",
+                    value: t,
+                    expected: "strictly increasing times [s]",
+                });
+            }
+        }
+        Ok(())
     }
 }
 

@@ -411,7 +411,11 @@ impl<R: Real> CpuSolver<R> {
             Integrator::Rk4 => self.rk4(m, s, h, &blown),
             Integrator::ImplicitEuler => self.implicit_euler(m, s, h, &blown)?,
         }
+        let t = s.time;
         s.time += dt;
+        if m.has_handles() {
+            move_handles(m, s, t, s.time);
+        }
         self.collide(m, s, &blown);
         self.contact(m, s, dt, &blown);
         self.timers.steps += 1;
@@ -474,5 +478,27 @@ impl<R: Real> Solver<R> for CpuSolver<R> {
 
     fn name(&self) -> &'static str {
         "cpu"
+    }
+}
+
+/// Moves the particles of every [`crate::model::Handle`] by its path's change from `t0` to `t1` \[s\] and gives
+/// them the path's mean velocity over the step. Runs after the integrator (which leaves pinned particles alone)
+/// and before collisions, so forces of step `t0 -> t1` saw the handles where they were at `t0`: first order in
+/// the handle's motion, as a kinematic boundary is in a symplectic Euler step. One pass over the particles'
+/// handle marks, only in a model that has handles.
+fn move_handles<R: Real>(m: &Model<R>, s: &mut State<R>, t0: f64, t1: f64) {
+    let moves: Vec<(R::V, R::V)> = m
+        .handles
+        .iter()
+        .map(|h| {
+            let d = h.offset(t1) - h.offset(t0);
+            (R::V::from_dvec3(d), R::V::from_dvec3(d / (t1 - t0)))
+        })
+        .collect();
+    for (i, &h) in m.particle_handle.iter().enumerate() {
+        if let Some(&(d, v)) = moves.get(h as usize) {
+            s.particle_q[i] += d;
+            s.particle_qd[i] = v;
+        }
     }
 }

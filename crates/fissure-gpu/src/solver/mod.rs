@@ -217,6 +217,9 @@ impl GpuSolver {
         if model.has_contact() {
             return Err(GpuError::UnsupportedContact);
         }
+        if model.has_handles() {
+            return Err(GpuError::UnsupportedHandles);
+        }
         let limits = device.limits();
         if limits.max_storage_buffers_per_shader_stage < STORAGE_BINDINGS {
             return Err(GpuError::Limit {

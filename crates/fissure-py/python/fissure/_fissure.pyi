@@ -84,6 +84,8 @@ class ModelBuilder:
         strain_limit: float | None = None,
         load_limit: float | None = None,
         sealed: bool = False,
+        tear_strength: float | None = None,
+        gas_inflow: float = 0.0,
     ) -> dict[str, int]: ...
     def add_cloth(
         self,
@@ -102,6 +104,7 @@ class ModelBuilder:
         lift: float = 0.5,
         strain_limit: float | None = None,
         load_limit: float | None = None,
+        tear_strength: float | None = None,
     ) -> dict[str, int]: ...
     def add_cloth_grid(
         self,
@@ -124,7 +127,17 @@ class ModelBuilder:
         lift: float = 0.5,
         strain_limit: float | None = None,
         load_limit: float | None = None,
+        tear_strength: float | None = None,
     ) -> dict[str, int]: ...
+    def add_handle(
+        self,
+        particles: Sequence[int],
+        *,
+        velocity: _Vec3 | None = None,
+        start: float = 0.0,
+        stop: float | None = None,
+        path: Sequence[tuple[float, _Vec3]] | None = None,
+    ) -> int: ...
     def set_contact(
         self, body: int, *, thickness: float | None = None, self_collision: bool = False, friction: float = 0.3
     ) -> None: ...
@@ -236,6 +249,8 @@ class World:
         discharge_coefficient: float = 0.6,
         gas_density: float = 1.2,
         start_time: float = 0.0,
+        splits_per_body: int = 1,
+        nucleation_interval: float | None = None,
     ) -> World: ...
     @property
     def model(self) -> Model: ...
