@@ -30,7 +30,7 @@ enum Shape {
 
 fn model_of(shape: Shape) -> Model<f64> {
     let mut b = ModelBuilder::new();
-    let brk = Some(Breakable { strain_limit: 0.5, load_limit: 10.0, sealed: false });
+    let brk = Some(Breakable { strain_limit: 0.5, load_limit: 10.0, sealed: false, ..Default::default() });
     match shape {
         Shape::Ball => {
             let opts = SoftBodyOptions {
@@ -320,7 +320,7 @@ fn fracture_is_deterministic_across_thread_counts() {
             let opts = SoftBodyOptions {
                 gas: Gas::Pressure(4000.0),
                 velocity: DVec3::new(0.0, -6.0, 0.0),
-                fracture: Some(Breakable { strain_limit: 0.15, load_limit: 2.0, sealed: false }),
+                fracture: Some(Breakable { strain_limit: 0.15, load_limit: 2.0, sealed: false, ..Default::default() }),
                 ..Default::default()
             };
             b.add_soft_body(&Mesh::icosphere(0.2, 3).translated(DVec3::new(0.0, 0.25, 0.0)), &opts).unwrap();
@@ -388,7 +388,7 @@ fn solver_measures_match_an_independent_f64_computation() {
     let mut b = ModelBuilder::new();
     let opts = SoftBodyOptions {
         gas: Gas::Pressure(2000.0),
-        fracture: Some(Breakable { strain_limit: 0.4, load_limit: 50.0, sealed: false }),
+        fracture: Some(Breakable { strain_limit: 0.4, load_limit: 50.0, sealed: false, ..Default::default() }),
         velocity: DVec3::new(0.3, -1.0, 0.0),
         ..Default::default()
     };

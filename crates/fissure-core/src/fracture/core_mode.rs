@@ -40,89 +40,105 @@ impl<R: Real> Fracture<R> {
                 None => return false,
             }
         }
-        let Some((rest_v, part)) = split_mass(m.particle_mass[vu], 1.0 / (2 * k + 1) as f64, 2 * k) else {
-            return false;
-        };
-        if !self.heavy_enough(part) || !self.heavy_enough(rest_v) {
-            return false;
+        // Each p_i gives the block the share of its mass its two fan triangles lumped on it, and keeps a
+        // triangle of its own outside the fan (else the surface would lose it).
+        let area = |t: u32| tri_area_now(m, s, t);
+        let mut shares = Vec::with_capacity(k);
+        for (i, &pi) in p.iter().enumerate() {
+            let piu = pi as usize;
+            if self.was_touched(pi) || m.particle_inv_mass[piu] == R::ZERO || m.particle_tris.row(piu).len() <= 2 {
+                return false;
+            }
+            let all: f64 = m.particle_tris.row(piu).iter().map(|&t| area(t)).sum();
+            let fan = area(ring[i].0) + area(ring[(i + k - 1) % k].0);
+            let frac = if all > 0.0 { (fan / all).clamp(1.0 / 16.0, 0.5) } else { 0.25 };
+            match split_mass(m.particle_mass[piu], frac, 1) {
+                Some((rest, part)) if self.heavy_enough(rest) && self.heavy_enough(part) => shares.push((rest, part)),
+                _ => return false,
+            }
         }
-        // The rest one-ring unfolded flat: P_i at angle phi_i, distance L_i; Q_i halfway to face i's far edge.
-        let li: Vec<f64> = sv.iter().map(|&sp| m.spring_rest_length[sp as usize].to_f64()).collect();
-        let mut phi = vec![0.0f64; k + 1];
-        for i in 0..k {
-            let (l1, l2) = (li[i], li[(i + 1) % k]);
-            let e = rest_between(m, s, p[i], p[(i + 1) % k]);
-            let c = ((l1 * l1 + l2 * l2 - e * e) / (2.0 * l1 * l2)).clamp(-1.0, 1.0);
-            phi[i + 1] = phi[i] + c.acos();
-        }
-        let pt = |i: usize| DVec2::from_angle(phi[i]) * li[i % k];
-        let qs: Vec<DVec2> = (0..k).map(|i| (pt(i) + pt(i + 1)) * 0.25).collect();
-        // Q_{i-1} in face i's frame: face k-1 is rotated by -phi_k to meet face 0 across v–p_0.
-        let prev_q = |i: usize| if i == 0 { DVec2::from_angle(-phi[k]).rotate(qs[k - 1]) } else { qs[i - 1] };
-        let ks = sv.iter().fold(R::ZERO, |acc, &sp| acc + m.spring_stiffness[sp as usize]) / R::from_f64(k as f64);
-        let kd = sv.iter().fold(R::ZERO, |acc, &sp| acc + m.spring_damping[sp as usize]) / R::from_f64(k as f64);
-        let lim = m.spring_strain_limit[sv[0] as usize];
-        let red = reduced(m.particle_mass[vu], m.particle_mass[p[0] as usize]);
-        let kd = (kd, red);
-        let xv = s.particle_q[vu];
-        let vv = s.particle_qd[vu];
         let body = m.particle_body[vu];
-        let half = R::from_f64(0.5);
-        let mut d = Vec::with_capacity(k);
-        let mut c = Vec::with_capacity(k);
-        for i in 0..k {
-            let far = (s.particle_q[p[i] as usize] + s.particle_q[p[(i + 1) % k] as usize]) * half;
-            let x = xv + (far - xv) * half;
-            d.push(add_particle(m, s, x, vv, part, R::ONE / part, body, vu));
-        }
         let core_body = new_body(m, body, v);
-        for i in 0..k {
-            let x = s.particle_q[d[i] as usize];
-            let ci = add_particle(m, s, x, vv, part, R::ONE / part, core_body, vu);
-            m.particle_load_limit[ci as usize] = R::infinity();
-            c.push(ci);
-        }
+        // The block's copies of the ring, where the ring is and moving with it (momentum is kept exactly).
+        let c: Vec<u32> = (0..k)
+            .map(|i| {
+                let (x, u, part) = (s.particle_q[p[i] as usize], s.particle_qd[p[i] as usize], shares[i].1);
+                let ci = add_particle(m, s, x, u, part, R::ONE / part, core_body, p[i] as usize);
+                m.particle_load_limit[ci as usize] = R::infinity();
+                ci
+            })
+            .collect();
         m.particle_body[vu] = core_body;
         m.particle_load_limit[vu] = R::infinity();
         m.body_anchor[core_body as usize] = v;
         if m.body_anchor[body as usize] == v {
-            m.body_anchor[body as usize] = d[0];
+            m.body_anchor[body as usize] = p[0];
         }
         self.delta.particles.push(v);
-        // The old spokes and any other spring of v (bending springs across its edges) go: the core is free.
-        let spokes: Vec<u32> = m.particle_springs.row(vu).iter().map(|&e| e >> 1).collect();
-        for sp in spokes {
-            break_spring(m, sp);
-            self.delta.springs.push(sp);
+        // The springs of the fan go with the block: the spokes v–p_i become v–c_i, each ring edge p_i–p_{i+1}
+        // (the rim of the hole, kept by the surface) gets a twin c_i–c_{i+1}. Springs that cross the fan or the
+        // rim (v's bending springs, and those between ring vertices that are not rim edges) break.
+        let params = |m: &Model<R>, sp: u32| {
+            let u = sp as usize;
+            let [a, b] = m.spring_indices[u];
+            let red = reduced(m.particle_mass[a as usize], m.particle_mass[b as usize]);
+            (m.spring_rest_length[u], m.spring_stiffness[u], (m.spring_damping[u], red), m.spring_strain_limit[u])
+        };
+        let spokes: Vec<_> = sv.iter().map(|&sp| params(m, sp)).collect();
+        let mut rims = Vec::with_capacity(k);
+        for i in 0..k {
+            match spring_between(m, p[i], p[(i + 1) % k]) {
+                Some(sp) => rims.push(params(m, sp)),
+                None => rims.push(spokes[i]),
+            }
         }
-        set_mass(m, vu, rest_v);
+        let mut doomed: Vec<u32> = m.particle_springs.row(vu).iter().map(|&e| e >> 1).collect();
+        for (i, &pi) in p.iter().enumerate() {
+            let (prev, next) = (p[(i + k - 1) % k], p[(i + 1) % k]);
+            for &e in m.particle_springs.row(pi as usize) {
+                let [a, b] = m.spring_indices[(e >> 1) as usize];
+                let w = if a == pi { b } else { a };
+                if p.contains(&w) && w != prev && w != next {
+                    doomed.push(e >> 1);
+                }
+            }
+        }
+        for sp in doomed {
+            if m.spring_kind[sp as usize] != SpringKind::Broken {
+                break_spring(m, sp);
+                self.delta.springs.push(sp);
+            }
+        }
+        for (i, &(rest, _)) in shares.iter().enumerate() {
+            set_mass(m, p[i] as usize, rest);
+            self.delta.particles.push(p[i]);
+        }
         for (i, &(t, _, _)) in ring.iter().enumerate() {
-            let (pi, pn, dp) = (p[i], p[(i + 1) % k], d[(i + k - 1) % k]);
-            set_tri(m, t, [d[i], pi, pn]);
+            set_tri(m, t, [v, c[i], c[(i + 1) % k]]);
+            m.tri_body[t as usize] = core_body;
             self.delta.triangles.push(t);
-            add_tri(m, [pi, d[i], dp], body);
-            add_tri(m, [v, c[(i + k - 1) % k], c[i]], core_body);
-            let r = |x: f64| R::from_f64(x);
-            let ring_len = (qs[i] - prev_q(i)).length();
-            add_spring(m, d[i], pi, r((qs[i] - pt(i)).length()), ks, kd, lim);
-            add_spring(m, d[i], pn, r((qs[i] - pt(i + 1)).length()), ks, kd, lim);
-            add_spring(m, d[i], dp, r(ring_len), ks, kd, lim);
-            add_spring(m, v, c[i], r(qs[i].length()), ks, kd, lim);
-            add_spring(m, c[i], c[(i + k - 1) % k], r(ring_len), ks, kd, lim);
+            let (l0, ks, kd, lim) = spokes[i];
+            add_spring(m, v, c[i], l0, ks, kd, lim);
+            let (l0, ks, kd, lim) = rims[i];
+            add_spring(m, c[i], c[(i + 1) % k], l0, ks, kd, lim);
         }
-        for &x in [v].iter().chain(&p).chain(&d).chain(&c) {
+        for &x in [v].iter().chain(&p).chain(&c) {
             self.touch(x);
         }
+        self.new_tips.extend(&p);
         events.push(FractureEvent {
             kind: FractureKind::Core,
             time: s.time,
-            position: xv.to_dvec3(),
+            position: s.particle_q[vu].to_dvec3(),
             body,
             spring: None,
             vertex: Some(v),
-            new_particles: d.iter().chain(&c).copied().collect(),
+            new_particles: c.clone(),
             new_body: Some(core_body),
         });
+        for &pi in &p {
+            self.separate(m, s, pi, events);
+        }
         true
     }
 }

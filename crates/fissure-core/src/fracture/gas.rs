@@ -51,6 +51,17 @@ impl<R: Real> Fracture<R> {
         }
     }
 
+    /// The pumps: each whole body with an inflow gains `inflow · dt` of `nRT`.
+    pub(super) fn pump(&mut self, m: &mut Model<R>, dt: f64) {
+        for b in 0..m.body_count() {
+            let q = m.body_gas_inflow[b];
+            if q > R::ZERO && !m.openings.iter().any(|o| o.body as usize == b) {
+                m.body_gas_amount[b] += q * R::from_f64(dt);
+                self.delta.gas = true;
+            }
+        }
+    }
+
     /// Orifice leak of every unsealed gas body with openings.
     pub(super) fn leak(&mut self, m: &mut Model<R>, s: &State<R>, dt: f64) {
         if m.openings.is_empty() || !m.has_pressure() {

@@ -4,28 +4,55 @@
 //! limits (at most [`FractureConfig::max_events_per_step`], the worst first, ties by index: a deterministic
 //! order), splits them one after another on the live topology, and reports each split as a [`FractureEvent`].
 //!
-//! **Spring mode** (seed Fig. 2). A spring `a–b` stretched past its strain limit breaks. Two virtual nodes are
-//! made on the segment: `n_a`, the part of the material on `a`'s side, and `n_b` on `b`'s side. Each takes a
-//! share of its parent's mass (the share the new triangles' lumped areas give it) and its parent's velocity,
-//! so mass is conserved exactly and momentum to rounding. Each triangle `(a, b, c)` on the edge is cut from the
-//! edge towards `c` into `(a, n_a, c)` and `(n_b, b, c)`; the old spring goes, and springs follow the new edges
-//! (`a–n_a`, `b–n_b` with half the rest length, `n_a–c`, `n_b–c` with the rest triangle's median). The crack is
-//! the slit `c–n_a–d | c–n_b–d` across the broken spring, opening as its two sides move apart: a crack runs
-//! across the direction of the tension that made it. The halves of the broken spring snap back to their rest
-//! length at once (the nodes are placed `L0/2` from their parents), so the broken spring's elastic energy is
-//! released by the fracture instead of re-breaking its halves on the next step.
+//! **Spring mode** (seed Fig. 2). A spring `a–b` stretched past its strain limit (set directly, or from the
+//! body's tear strength in N/m: [`crate::Breakable::tear_strength`]) breaks. Two virtual nodes are made on the
+//! segment, each 0.45 of its length from its parent: `n_a`, the part of the material on `a`'s side, and `n_b` on
+//! `b`'s side (never at one point, and no node jumps: a jump could carry a face through a neighbour within the
+//! contact distance). Each takes a share of its parent's mass (the share the new triangles' lumped areas give
+//! it) and its parent's velocity, so mass is conserved exactly and momentum to rounding. Each triangle
+//! `(a, b, c)` on the edge is cut from the edge towards `c` into `(a, n_a, c)` and `(n_b, b, c)`; the old spring
+//! goes, and springs follow the new edges (`a–n_a`, `b–n_b` with half the rest length, `n_a–c`, `n_b–c` with the
+//! rest triangle's median). The crack is the slit `c–n_a–d | c–n_b–d` across the broken spring, opening as its
+//! two sides move apart; its tips are `c` and `d`. The springs of a crack's faces never break: born as
+//! stretched as the material around them, with light nodes, they would pass the limit within steps and every
+//! split would set off more along its own faces (the sheet shatters round the crack instead of tearing along
+//! it); a crack runs through the material at its tips.
+//!
+//! **Cracks that run and stop.** A membrane under uniform tension has every spring along the load past its
+//! limit within a step or two; splitting them all shatters it. Three rules make a crack start at one place,
+//! run across the tension and stop when the load drops:
+//! - at most [`FractureConfig::splits_per_body`] (default 1) triangle-edge splits per body per step: a crack
+//!   advances up to an edge per step, faster than the membrane's waves at any stable step;
+//! - a split whose spring touches no crack tip starts a new crack, and the body then waits
+//!   [`FractureConfig::nucleation_interval`] (default: the time a stress wave takes to cross it) before the next
+//!   one; a piece that comes off waits as long. A tip's springs may advance at once. So the first crack unloads
+//!   the material before another can start, and a crack does not branch from its flanks;
+//! - candidates are ranked by their ratio times `sin²` of the angle between the spring (the tension that
+//!   stretched it) and the slit its split would open: a split can only cut a triangle from an edge to its
+//!   opposite corner, and the weight makes a crack take the cut most nearly across the load, following the
+//!   perpendicular to the principal stress as closely as the mesh allows (a notched sheet pulled uniaxially
+//!   cracks within 2° of it, `tests/tearing.rs`).
+//!
+//! A crack in a gas body is driven by the pressure; as the gas leaks through the slit the tips' springs fall
+//! below their limit and the crack stops. With [`Trigger::Averaged`] a tip needs a sustained overload: the crack
+//! advances about an edge per window, and dynamic spikes (an impact's ringing) start none.
 //!
 //! **Core mode** (seed Fig. 3). A vertex `v` whose *load* passes its limit breaks out. Load is the magnitude of
 //! the net elastic force (springs and gas) on the vertex, in newtons: in a uniformly stretched or inflated
 //! membrane it is near zero however high the tension (the vertex is pulled equally from all sides — tearing under
 //! tension is the spring mode's job), and it is large exactly where the body is pressed or pulled locally, at a
-//! contact with an obstacle or a sharp dent: where a chunk is punched out. `v` splits into one copy per incident
-//! triangle on each side of the break: `c_i` (the core) and `d_i` (the surface), placed halfway from `v` towards
-//! the far edge of triangle `i`. The core block is `v` with the fan `(v, c_{i-1}, c_i)` and the ring of springs
-//! `c_{i-1}–c_i`; it becomes its own body and breaks away. The surface keeps each triangle as `(d_i, p_i,
-//! p_{i+1})` plus `(p_i, d_i, d_{i-1})` between neighbours: a valid surface with a hole where the core was. The
-//! copies share `v`'s mass equally (exactly) and take its velocity. Rest lengths of all new springs come from the
-//! rest shape (the one-ring unfolded flat from the springs' rest lengths).
+//! contact with an obstacle or a sharp dent: where a chunk is punched out. The core block is `v`'s whole one-ring:
+//! its fan triangles `(v, p_i, p_{i+1})` go to a new body with copies `c_i` of the ring vertices (each taking
+//! the share of `p_i`'s mass its two fan triangles lumped on it, and `p_i`'s velocity: mass and momentum exact),
+//! the spokes `v–c_i` and a twin `c_i–c_{i+1}` of each rim spring; the surface keeps the ring `p_i` and its rim
+//! springs around a hole the size of the block. Springs that crossed the fan or the rim (`v`'s bending springs,
+//! and those between ring vertices that are not rim edges) break. The ring vertices become crack tips: the
+//! stress at a hole's rim can start cracks.
+//!
+//! **Stiffness cap.** A split makes light nodes held by springs as stiff as the one that broke; each spring keeps
+//! its own frequency, but a node held by two or three of them oscillates faster than any particle did. After
+//! each step's splits, every touched particle whose `Σ k / m` passed the highest of the model as first seen has
+//! its springs softened to it, so the explicit integrators stay stable at the step the model started with.
 //!
 //! **Separation.** After a split, a vertex whose triangles no longer form one fan (a crack reached it from two
 //! sides) is duplicated, one copy per fan, its mass shared exactly; its springs go to the copy whose fan holds
@@ -53,7 +80,7 @@
 use crate::model::{Model, Opening, SpringKind, State};
 use crate::real::{Real, Vector3};
 use crate::timers::{Stage, StageTimers};
-use glam::{DVec2, DVec3};
+use glam::DVec3;
 use std::collections::BTreeSet;
 use std::time::Instant;
 
@@ -87,6 +114,21 @@ pub struct FractureConfig {
     pub trigger: Trigger,
     /// Most splits per step (the worst first). Default 32.
     pub max_events_per_step: usize,
+    /// Most spring-mode splits of triangle edges per body per step. Default 1. A membrane under uniform tension
+    /// has every spring along the load past its limit within one step; splitting them all starts a crack at
+    /// each and shatters the sheet. In a real sheet the first crack unloads the material around it and its
+    /// tips, where the stress concentrates, take the load. One split per body per step keeps to that: the worst
+    /// spring nucleates a crack, and on the next steps its tips (now the worst) carry it across while the load
+    /// holds, at up to one edge per step (faster than the membrane's waves at any stable step). Springs on no
+    /// triangle (bending, the second diagonal) are simply removed and do not count.
+    pub splits_per_body: usize,
+    /// Least time \[s\] between two new cracks in one body: a split whose springs touch no earlier crack starts a
+    /// new one, and the body then waits this long before the next (the tips of the cracks it has may advance
+    /// meanwhile). `None` (the default): the time a stress wave takes to cross the body, `extent / c` with
+    /// `c = sqrt(k / ρ_A)` from its mean edge stiffness and area density. By then the first crack has unloaded
+    /// the material, and a sheet that reaches its strength everywhere at once tears along one crack instead of
+    /// shattering. `Some(0.0)`: no wait.
+    pub nucleation_interval: Option<f64>,
     /// Orifice discharge coefficient `C_d` of openings. Default 0.6 (a sharp-edged orifice).
     pub discharge_coefficient: f64,
     /// Density `ρ` of the gas \[kg/m^3\] in the orifice equation. Default 1.2 (air).
@@ -119,10 +161,26 @@ impl FractureConfig {
                 expected: "finite and > 0 [s]",
             });
         }
+        if self.splits_per_body == 0 {
+            return Err(ModelError::Parameter {
+                name: "splits_per_body",
+                value: 0.0,
+                expected: ">= 1 (a strain limit of infinity switches spring mode off)",
+            });
+        }
         for (name, v) in [("discharge_coefficient", self.discharge_coefficient), ("gas_density", self.gas_density)] {
             if !(v.is_finite() && v > 0.0) {
                 return Err(ModelError::Parameter { name, value: v, expected: "finite and > 0" });
             }
+        }
+        if let Some(v) = self.nucleation_interval
+            && !(v.is_finite() && v >= 0.0)
+        {
+            return Err(ModelError::Parameter {
+                name: "nucleation_interval",
+                value: v,
+                expected: "finite and >= 0 [s]",
+            });
         }
         for (name, v) in [("min_rest_length", self.min_rest_length), ("min_mass_ratio", self.min_mass_ratio)] {
             if !(v.is_finite() && v >= 0.0) {
@@ -141,6 +199,8 @@ impl Default for FractureConfig {
         FractureConfig {
             trigger: Trigger::Instant,
             max_events_per_step: 32,
+            splits_per_body: 1,
+            nucleation_interval: None,
             discharge_coefficient: 0.6,
             gas_density: 1.2,
             min_rest_length: 1e-5,
@@ -293,6 +353,15 @@ pub struct Fracture<R: Real = f32> {
     boundary: Vec<BTreeSet<u32>>,
     /// The lightest particle a split may make \[kg\] (set on first use from `min_mass_ratio`).
     mass_floor: Option<R>,
+    /// The highest `Σ k / m` \[1/s²\] of any free particle as first seen: no split may raise a particle's above it.
+    stiff_cap: f64,
+    /// Per body: when it may start its next crack \[s\], and its wave-crossing time \[s\].
+    quiet_until: Vec<f64>,
+    crossing: Vec<f64>,
+    /// Per particle: a crack tip (the far corner of a split triangle, or the rim of a core block's hole) made by
+    /// an earlier step; `new_tips` those of this step.
+    tip: Vec<bool>,
+    new_tips: Vec<u32>,
     timers: StageTimers,
     delta: TopologyDelta,
 }
@@ -333,7 +402,7 @@ impl<R: Real> Fracture<R> {
 
     /// True if the pass has anything to do for `m`: something can break, or a gas body has an opening.
     pub fn needed(&self, m: &Model<R>) -> bool {
-        m.has_fracture() || !m.openings.is_empty()
+        m.has_fracture() || !m.openings.is_empty() || m.body_gas_inflow.iter().any(|&q| q > R::ZERO)
     }
 
     /// Checks every breakable spring and vertex after a step of `dt` \[s\], splits those past their limits, lets
@@ -372,25 +441,68 @@ impl<R: Real> Fracture<R> {
                 None => self.scan(m, s, dt),
             }
             let budget = self.config.max_events_per_step;
-            let cands = std::mem::take(&mut self.candidates);
+            let mut cands = std::mem::take(&mut self.candidates);
+            self.rank_cracks(m, s, &mut cands);
             let mut done = 0;
+            // Bodies and their triangle-edge splits this step.
+            let mut splits: Vec<(u32, usize)> = Vec::new();
             for &(_, kind, idx) in &cands {
                 if done >= budget {
                     break;
                 }
+                let first = events.len();
                 let ok = if kind == 0 {
-                    self.split_spring(m, s, idx, &mut events)
+                    let [a, b] = m.spring_indices[idx as usize];
+                    let body = m.particle_body[a as usize];
+                    let on_tri = m.particle_tris.row(a as usize).iter().any(|&t| crate::model::edit::tri_has(m, t, b));
+                    let k = splits.iter().position(|&(bd, _)| bd == body);
+                    if on_tri && k.is_some_and(|k| splits[k].1 >= self.config.splits_per_body) {
+                        continue;
+                    }
+                    let new_crack = on_tri && !self.near_crack(m, a, b);
+                    let bu = body as usize;
+                    if new_crack && self.quiet_until.get(bu).is_some_and(|&t| s.time < t) {
+                        continue;
+                    }
+                    let ok = self.split_spring(m, s, idx, false, &mut events);
+                    if ok && on_tri {
+                        match k {
+                            Some(k) => splits[k].1 += 1,
+                            None => splits.push((body, 1)),
+                        }
+                    }
+                    if ok && new_crack && bu < self.quiet_until.len() {
+                        let wait = self.config.nucleation_interval.unwrap_or(self.crossing[bu]);
+                        self.quiet_until[bu] = s.time + wait;
+                    }
+                    ok
                 } else {
                     self.split_core(m, s, idx, &mut events)
                 };
                 done += ok as usize;
+                // Pieces that came off wait as their body would after a new crack: the unloading wave of the crack
+                // that freed them is still crossing them.
+                for e in &events[first..] {
+                    if let Some(nb) = e.new_body {
+                        let (p, nb) = (e.body as usize, nb as usize);
+                        if p < self.quiet_until.len() && nb >= self.quiet_until.len() {
+                            self.quiet_until.resize(nb + 1, f64::NEG_INFINITY);
+                            self.crossing.resize(nb + 1, 0.0);
+                            let wait = self.config.nucleation_interval.unwrap_or(self.crossing[p]);
+                            self.quiet_until[nb] = self.quiet_until[p].max(s.time + wait);
+                            self.crossing[nb] = self.crossing[p];
+                        }
+                    }
+                }
             }
             self.candidates = cands;
             if !events.is_empty() {
                 self.volumes.clear();
+                self.clear_colliders(m, s);
             }
             self.finish(m);
         }
+        self.pump(m, dt);
         self.leak(m, s, dt);
         self.timers.add(Stage::Fracture, t0);
         self.timers.steps += 1;
@@ -416,7 +528,7 @@ impl<R: Real> Fracture<R> {
         if core && index < m.particle_count() {
             self.split_core(m, s, index as u32, &mut events);
         } else if !core && index < m.spring_count() {
-            self.split_spring(m, s, index as u32, &mut events);
+            self.split_spring(m, s, index as u32, true, &mut events);
         }
         self.finish(m);
         self.delta.events = events;
@@ -432,6 +544,12 @@ impl<R: Real> Fracture<R> {
                 .map(|i| m.particle_mass[i])
                 .fold(R::infinity(), |a, b| a.min(b));
             self.mass_floor = Some(lightest * R::from_f64(self.config.min_mass_ratio));
+            self.stiff_cap = (0..m.particle_count())
+                .filter(|&i| m.particle_inv_mass[i] != R::ZERO)
+                .map(|i| stiffness_sum(m, i) / m.particle_mass[i].to_f64())
+                .fold(0.0, f64::max);
+            self.crossing = crossing_times(m);
+            self.quiet_until = vec![f64::NEG_INFINITY; m.body_count()];
         }
         let n = m.particle_count();
         if self.touched.len() < n {
@@ -460,6 +578,14 @@ impl<R: Real> Fracture<R> {
         if self.touched_list.is_empty() {
             return;
         }
+        self.soften(m);
+        for v in std::mem::take(&mut self.new_tips) {
+            let v = v as usize;
+            if self.tip.len() <= v {
+                self.tip.resize(v + 1 + v / 4, false);
+            }
+            self.tip[v] = true;
+        }
         self.update_openings(m);
         m.particle_springs.compact_if_sparse();
         m.particle_tris.compact_if_sparse();
@@ -472,6 +598,56 @@ impl<R: Real> Fracture<R> {
         {
             list.sort_unstable();
             list.dedup();
+        }
+    }
+
+    /// Moves the particles this step's splits made out of the colliders: a node placed on the chord of a spring
+    /// wrapped round a ball collider lies inside it (by up to `L² / 8R`).
+    fn clear_colliders(&self, m: &Model<R>, s: &mut State<R>) {
+        if !m.has_colliders() {
+            return;
+        }
+        for i in self.delta.old_counts[0]..m.particle_count() {
+            for c in &m.colliders {
+                let (x, v) = (s.particle_q[i].to_dvec3().as_vec3(), s.particle_qd[i].to_dvec3().as_vec3());
+                if let Some((x, v)) = c.resolve(s.time, x, v) {
+                    s.particle_q[i] = R::V::from_dvec3(x.as_dvec3());
+                    s.particle_qd[i] = R::V::from_dvec3(v.as_dvec3());
+                }
+            }
+        }
+    }
+
+    /// Caps the stiffness of every particle a split touched: where `Σ k / m` of its springs passed the highest
+    /// of the model as first seen, all its springs are softened by the ratio (damping by its square root, so the
+    /// damping ratio stays). A split makes light virtual nodes held by springs as stiff as the one that broke;
+    /// each spring keeps its own frequency ([`crate::model::edit`]'s `add_spring`), but a node held by two or
+    /// three of them oscillates faster than any particle did, and a crack of many splits would pull the stable
+    /// time step down with it. With the cap, the explicit integrators stay stable at the step the model started
+    /// with (the damaged material at a crack's edge is a little softer).
+    fn soften(&mut self, m: &mut Model<R>) {
+        if self.stiff_cap <= 0.0 {
+            return;
+        }
+        let old_springs = self.delta.old_counts[1] as u32;
+        for k in 0..self.touched_list.len() {
+            let v = self.touched_list[k] as usize;
+            if m.particle_inv_mass[v] == R::ZERO {
+                continue;
+            }
+            let w2 = stiffness_sum(m, v) / m.particle_mass[v].to_f64();
+            if w2 <= self.stiff_cap {
+                continue;
+            }
+            let scale = self.stiff_cap / w2;
+            for j in 0..m.particle_springs.row(v).len() {
+                let sp = (m.particle_springs.row(v)[j] >> 1) as usize;
+                m.spring_stiffness[sp] *= R::from_f64(scale);
+                m.spring_damping[sp] *= R::from_f64(scale.sqrt());
+                if (sp as u32) < old_springs {
+                    self.delta.springs.push(sp as u32);
+                }
+            }
         }
     }
 
@@ -493,6 +669,50 @@ impl<R: Real> Fracture<R> {
     fn was_touched(&self, v: u32) -> bool {
         self.touched.get(v as usize).is_some_and(|&g| g == self.step_gen)
     }
+}
+
+/// `Σ k` \[N/m\] of particle `i`'s springs.
+fn stiffness_sum<R: Real>(m: &Model<R>, i: usize) -> f64 {
+    m.particle_springs.row(i).iter().map(|&e| m.spring_stiffness[(e >> 1) as usize].to_f64()).sum()
+}
+
+/// Each body's wave-crossing time \[s\]: its rest extent (bounding-box diagonal) over `c = sqrt(k / ρ_A)`, `k`
+/// the mean stiffness of its edge springs, `ρ_A` its mass over its rest area (0 for a body without either).
+fn crossing_times<R: Real>(m: &Model<R>) -> Vec<f64> {
+    let nb = m.body_count();
+    let (mut lo, mut hi) = (vec![DVec3::splat(f64::MAX); nb], vec![DVec3::splat(f64::MIN); nb]);
+    let mut mass = vec![0.0; nb];
+    for i in 0..m.particle_count() {
+        let b = m.particle_body[i] as usize;
+        if b < nb {
+            let x = m.particle_q0[i].to_dvec3();
+            lo[b] = lo[b].min(x);
+            hi[b] = hi[b].max(x);
+            mass[b] += m.particle_mass[i].to_f64();
+        }
+    }
+    let mut area = vec![0.0; nb];
+    for (t, tri) in m.tri_indices.iter().enumerate() {
+        let [a, b, c] = tri.map(|v| m.particle_q0[v as usize].to_dvec3());
+        area[m.tri_body[t] as usize] += 0.5 * (b - a).cross(c - a).length();
+    }
+    let mut k = vec![(0.0, 0usize); nb];
+    for (sp, &[i, _]) in m.spring_indices.iter().enumerate() {
+        let b = m.particle_body[i as usize] as usize;
+        if b < nb && m.spring_kind[sp] == SpringKind::Edge {
+            k[b].0 += m.spring_stiffness[sp].to_f64();
+            k[b].1 += 1;
+        }
+    }
+    (0..nb)
+        .map(|b| {
+            if k[b].1 == 0 || mass[b] <= 0.0 || area[b] <= 0.0 {
+                return 0.0;
+            }
+            let c = (k[b].0 / k[b].1 as f64 / (mass[b] / area[b])).sqrt();
+            (hi[b] - lo[b]).length() / c
+        })
+        .collect()
 }
 
 #[cfg(test)]

@@ -57,30 +57,45 @@ impl<R: Real> Fracture<R> {
         }
         for &cp in &copies[1..] {
             if let Some(piece) = self.disconnected(m, v, cp) {
-                let parent = m.particle_body[vu];
-                let nb = new_body(m, parent, piece[0]);
-                for &x in &piece {
-                    m.particle_body[x as usize] = nb;
-                    for &t in m.particle_tris.row(x as usize) {
-                        m.tri_body[t as usize] = nb;
-                    }
-                    self.delta.particles.push(x);
-                }
-                if piece.contains(&m.body_anchor[parent as usize]) {
-                    m.body_anchor[parent as usize] = if piece.contains(&v) { cp } else { v };
-                }
-                events.push(FractureEvent {
-                    kind: FractureKind::Detach,
-                    time: s.time,
-                    position: s.particle_q[vu].to_dvec3(),
-                    body: parent,
-                    spring: None,
-                    vertex: Some(v),
-                    new_particles: copies[1..].to_vec(),
-                    new_body: Some(nb),
-                });
+                self.detach(m, s, piece, [v, cp], copies[1..].to_vec(), events);
             }
         }
+    }
+
+    /// Makes `piece` (the particles on one side of a cut between `ends`, as [`Fracture::disconnected`] found
+    /// them) its own body, and reports it.
+    pub(super) fn detach(
+        &mut self,
+        m: &mut Model<R>,
+        s: &State<R>,
+        piece: Vec<u32>,
+        ends: [u32; 2],
+        new_particles: Vec<u32>,
+        events: &mut Vec<FractureEvent>,
+    ) {
+        let [v, w] = ends;
+        let parent = m.particle_body[v as usize];
+        let nb = new_body(m, parent, piece[0]);
+        for &x in &piece {
+            m.particle_body[x as usize] = nb;
+            for &t in m.particle_tris.row(x as usize) {
+                m.tri_body[t as usize] = nb;
+            }
+            self.delta.particles.push(x);
+        }
+        if piece.contains(&m.body_anchor[parent as usize]) {
+            m.body_anchor[parent as usize] = if piece.contains(&v) { w } else { v };
+        }
+        events.push(FractureEvent {
+            kind: FractureKind::Detach,
+            time: s.time,
+            position: s.particle_q[v as usize].to_dvec3(),
+            body: parent,
+            spring: None,
+            vertex: Some(v),
+            new_particles,
+            new_body: Some(nb),
+        });
     }
 
     /// Breadth-first search from `a` and `b` at once over live springs: the particles of the side exhausted first
