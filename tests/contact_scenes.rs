@@ -1,6 +1,7 @@
 //! The contact scenes run to the end on the CPU, and at every frame (1/60 s) no two triangles that are not
-//! neighbours cross (the exact test of `fissure::contact::crossings`): balloons thrown at each other, a cloth
-//! folding over itself, and the fracture scene, whose core blocks must stay out of the ball.
+//! neighbours cross (the exact test of `fissure::contact::crossings`), unless both are of one body that does not
+//! ask for self-contact: balloons thrown at each other, a cloth folding over itself, and the fracture scene, whose
+//! core blocks must stay out of the ball.
 
 use fissure::scene::Scene;
 use fissure::*;
@@ -14,7 +15,16 @@ fn run_checked(name: &str) -> (World<f32>, ContactStats) {
     let frames = (scene.solver.duration * 60.0).round() as usize;
     for frame in 0..frames {
         w.advance(1.0 / 60.0, scene.solver.dt).unwrap();
-        let x = fissure::contact::crossings(&w.model, &w.state.particle_q);
+        // Two surfaces may never cross; one surface may cross itself only where it does not ask for self-contact
+        // (the fracture scene's torn ball folds its flaps into itself: contact keeps its pieces apart).
+        let m = &w.model;
+        let x: Vec<[u32; 2]> = fissure::contact::crossings(m, &w.state.particle_q)
+            .into_iter()
+            .filter(|&[t, u]| {
+                let (a, b) = (m.tri_body[t as usize], m.tri_body[u as usize]);
+                a != b || m.body_self_contact[a as usize]
+            })
+            .collect();
         assert!(x.is_empty(), "{name}: frame {frame}: {} crossing triangle pairs, first {:?}", x.len(), x[0]);
     }
     let stats = w.cpu_solver().unwrap().contact_stats();
