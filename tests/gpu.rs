@@ -260,6 +260,16 @@ fn triangle_mesh_colliders_work_through_a_signed_distance_grid() {
     assert!(checked > 250, "{checked}");
 }
 
+/// A fracture pass that breaks every candidate at once: no limit per body, no wait between cracks.
+fn every_candidate() -> FractureConfig {
+    FractureConfig {
+        max_events_per_step: 1000,
+        splits_per_body: usize::MAX,
+        nucleation_interval: Some(0.0),
+        ..Default::default()
+    }
+}
+
 #[test]
 fn fracture_candidates_match_the_cpu() {
     let Some(ctx) = gpu() else { return };
@@ -300,14 +310,7 @@ fn fracture_candidates_match_the_cpu() {
     assert_eq!(cand.springs, expected);
     assert_eq!(report.spring_candidates as usize, expected.len());
     // And the springs the CPU fracture pass breaks are those.
-    // (Every candidate at once: no limit per body, no wait between cracks.)
-    let all = FractureConfig {
-        max_events_per_step: 1000,
-        splits_per_body: usize::MAX,
-        nucleation_interval: Some(0.0),
-        ..Default::default()
-    };
-    let mut f = Fracture::<f32>::new(all);
+    let mut f = Fracture::<f32>::new(every_candidate());
     let events = f.apply(&mut m, &mut s, dt);
     let mut broken: Vec<u32> = events.events.iter().filter_map(|e| e.spring).collect();
     broken.sort_unstable();
@@ -362,14 +365,7 @@ fn load_candidates_match_the_cpu() {
     assert!(dents.iter().all(|d| expected.contains(d)), "{expected:?}");
     assert_eq!(cand.vertices, expected, "GPU load candidates");
     // The CPU fracture pass breaks the dents (their neighbours, now next to a hole, may not break in the same step).
-    // (Every candidate at once: no limit per body, no wait between cracks.)
-    let all = FractureConfig {
-        max_events_per_step: 1000,
-        splits_per_body: usize::MAX,
-        nucleation_interval: Some(0.0),
-        ..Default::default()
-    };
-    let mut f = Fracture::<f32>::new(all);
+    let mut f = Fracture::<f32>::new(every_candidate());
     let events = f.apply(&mut m, &mut s, dt);
     let cores: Vec<u32> =
         events.events.iter().filter(|e| e.kind == FractureKind::Core).filter_map(|e| e.vertex).collect();
