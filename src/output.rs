@@ -180,6 +180,9 @@ impl FrameRenderer {
         if self.renderer.has_moving_colliders() {
             self.renderer.set_colliders(model, state.time);
         }
+        if self.view.strain {
+            self.renderer.color_by_strain(model, &state.particle_q);
+        }
         self.renderer.upload_positions(state);
         self.draw(Positions::Uploaded, overlay)
     }

@@ -24,6 +24,8 @@ pub struct RunConfig {
     pub png: bool,
     pub mesh: Option<MeshFormat>,
     pub wireframe: bool,
+    /// Colour surfaces by strain (`--color strain`).
+    pub strain: bool,
 }
 
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -34,7 +36,7 @@ pub enum MeshFormat {
 
 pub const RUN_USAGE: &str = "\
 usage: fissure run SCENE [--frames N] [--fps F] [--out DIR] [--backend cpu|gpu] [--size WxH]
-                         [--mesh obj|ply] [--no-gif] [--no-png] [--wireframe]
+                         [--mesh obj|ply] [--no-gif] [--no-png] [--wireframe] [--color body|strain]
 
   Simulates a scene file headless and writes PNG frames and an animated GIF of it.
 
@@ -49,6 +51,7 @@ usage: fissure run SCENE [--frames N] [--fps F] [--out DIR] [--backend cpu|gpu] 
   --mesh obj|ply    also write each frame's surface mesh
   --no-gif          no GIF; --no-png: no PNG frames
   --wireframe       draw the springs over the surfaces
+  --color C         colour surfaces by body (default) or strain (blue at rest to red at the tear limit; CPU)
 
 Without a GPU the frames are drawn by the software Vulkan driver (lavapipe: on Debian or Ubuntu
 `apt install mesa-vulkan-drivers`); with no adapter at all it still simulates and prints the summary.";
@@ -76,6 +79,7 @@ pub fn parse(args: &[String]) -> Result<RunConfig, String> {
         png: true,
         mesh: None,
         wireframe: false,
+        strain: false,
     };
     let mut scene = None;
     let mut it = args.iter();
@@ -119,6 +123,13 @@ pub fn parse(args: &[String]) -> Result<RunConfig, String> {
             "--no-gif" => cfg.gif = false,
             "--no-png" => cfg.png = false,
             "--wireframe" => cfg.wireframe = true,
+            "--color" => {
+                cfg.strain = match value("--color")?.as_str() {
+                    "strain" => true,
+                    "body" => false,
+                    other => return Err(format!("--color: {other:?} is neither body nor strain")),
+                }
+            }
             s if s.starts_with('-') => return Err(format!("unknown option `{s}`")),
             s if scene.is_none() => scene = Some(PathBuf::from(s)),
             s => return Err(format!("one scene at a time (got {s:?} too)")),
@@ -244,6 +255,7 @@ pub fn run(cfg: &RunConfig) -> Result<RunSummary, Box<dyn std::error::Error>> {
     }
     if let Some(r) = out_frames.renderer() {
         r.view.wireframe = cfg.wireframe;
+        r.view.strain = cfg.strain;
     }
     let not_drawn = out_frames.unavailable().map(|e| e.to_string());
     match (&not_drawn, &adapter) {

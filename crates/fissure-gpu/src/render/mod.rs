@@ -79,11 +79,13 @@ pub struct View {
     pub scene: bool,
     /// Side of a mass point's square \[px\].
     pub point_size: f32,
+    /// Colour surfaces by strain instead of by body (see [`Renderer::color_by_strain`]; CPU states only).
+    pub strain: bool,
 }
 
 impl Default for View {
     fn default() -> Self {
-        View { surfaces: true, wireframe: false, points: false, scene: true, point_size: 4.0 }
+        View { surfaces: true, wireframe: false, points: false, scene: true, point_size: 4.0, strain: false }
     }
 }
 
@@ -162,6 +164,20 @@ impl Sized {
             queue.write_buffer(&self.buffer, 0, data);
         }
     }
+}
+
+/// Strain drawn red by [`Renderer::color_by_strain`] on springs without a strain limit.
+pub const STRAIN_FULL_SCALE: f32 = 0.3;
+
+/// A heat map of `x` in \[0, 1\] (clamped): blue, cyan, green, yellow, red (sRGB).
+fn heat(x: f32) -> [u8; 3] {
+    const STOPS: [[f32; 3]; 5] =
+        [[40., 70., 200.], [40., 190., 220.], [60., 200., 80.], [240., 220., 40.], [220., 40., 30.]];
+    let t = x.clamp(0.0, 1.0) * 4.0;
+    let k = (t.floor() as usize).min(3);
+    let f = t - k as f32;
+    let (a, b) = (STOPS[k], STOPS[k + 1]);
+    [0, 1, 2].map(|c| (a[c] + (b[c] - a[c]) * f).round() as u8)
 }
 
 fn pack(rgb: [u8; 3], a: u8) -> [u8; 4] {
@@ -358,6 +374,31 @@ impl Renderer {
     /// The colour format it draws into.
     pub fn format(&self) -> wgpu::TextureFormat {
         self.format
+    }
+
+    /// Colours each particle by how near its most stretched edge spring is to breaking: blue at rest or
+    /// compressed, through cyan, green and yellow, to red at the spring's strain limit (where it tears). Springs
+    /// that cannot break are measured against [`STRAIN_FULL_SCALE`]. Call every frame, after
+    /// [`Renderer::set_model`] (which puts the body colours back).
+    pub fn color_by_strain(&mut self, m: &Model<f32>, q: &[Vec3]) {
+        let colors: Vec<[u8; 4]> = (0..m.particle_count())
+            .map(|i| {
+                let mut d = 0.0f32;
+                for &e in m.particle_springs.row(i) {
+                    let sp = (e >> 1) as usize;
+                    if m.spring_kind[sp] != SpringKind::Edge {
+                        continue;
+                    }
+                    let [a, b] = m.spring_indices[sp];
+                    let l0 = m.spring_rest_length[sp];
+                    let strain = ((q[b as usize] - q[a as usize]).length() - l0) / l0;
+                    let lim = m.spring_strain_limit[sp];
+                    d = d.max(strain / if lim.is_finite() { lim } else { STRAIN_FULL_SCALE });
+                }
+                pack(heat(d), if m.particle_inv_mass[i] == 0.0 { 0 } else { 255 })
+            })
+            .collect();
+        self.colors.write(&self.device, &self.queue, bytemuck::cast_slice(&colors));
     }
 
     /// Takes the model's topology (triangles, springs, body colours, pinned particles) and its colliders at
