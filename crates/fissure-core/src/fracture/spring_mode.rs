@@ -83,7 +83,7 @@ impl<R: Real> Fracture<R> {
         let (pa, pb) = (m.particle_inv_mass[au] == R::ZERO, m.particle_inv_mass[bu] == R::ZERO);
         let na = add_particle(m, s, xna, s.particle_qd[au], part_a, inv(pa, part_a), m.particle_body[au], au);
         let nb = add_particle(m, s, xnb, s.particle_qd[bu], part_b, inv(pb, part_b), m.particle_body[bu], bu);
-        let (ks, kd, lim) = (m.spring_stiffness[spu], m.spring_damping[spu], m.spring_strain_limit[spu]);
+        let (ks, kd) = (m.spring_stiffness[spu], m.spring_damping[spu]);
         let red = reduced(m.particle_mass[au], m.particle_mass[bu]);
         break_spring(m, sp);
         set_mass(m, au, rest_a);
@@ -95,7 +95,6 @@ impl<R: Real> Fracture<R> {
         // born as stretched as the material around them, their nodes light -- pass the limit within steps of
         // their birth, and every split sets off more along its own faces: the sheet shatters around the crack
         // instead of tearing along it.
-        let _ = lim;
         add_spring(m, a, na, l0 * half, ks, (kd, red), R::infinity());
         add_spring(m, b, nb, l0 * half, ks, (kd, red), R::infinity());
         let mut thirds = Vec::with_capacity(2);
