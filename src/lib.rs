@@ -29,6 +29,7 @@ pub use fissure_core::*;
 pub mod output;
 pub mod scene;
 pub mod scenes;
+pub mod vtk;
 mod world;
 pub use world::{Advance, World};
 #[cfg(feature = "viewer")]

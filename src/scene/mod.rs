@@ -66,6 +66,9 @@
 //! center = [0.0, 0.3, 0.0]
 //! radius = 0.3
 //! ```
+//!
+//! Any key can be overridden without editing the file ([`Override`], [`Scene::load_with`]), and a scene run
+//! headless comes to an [`Outcome`] ([`Scene::run_headless`]; many at once in parallel with [`run_all`]).
 
 use crate::*;
 use glam::{DVec3, Vec3};
@@ -73,8 +76,12 @@ use serde::Deserialize;
 use std::path::{Path, PathBuf};
 
 mod format;
+mod outcome;
+mod overrides;
 
 pub use format::*;
+pub use outcome::{Job, Outcome, advance_all, run_all};
+pub use overrides::{Override, parse_value};
 
 /// Core parameter names that differ from a body's scene keys.
 const BODY_KEYS: &[(&str, &str)] = &[

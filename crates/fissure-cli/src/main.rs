@@ -3,12 +3,15 @@
 //! ```text
 //! fissure run SCENE [--frames N] [--fps F] [--out DIR] [--backend cpu|gpu] [--size WxH] [--mesh obj|ply]
 //! fissure view SCENE [--size WxH] [--paused] [--frames N --screenshot FILE]
+//! fissure sweep SCENE --set KEY=V1,V2,... [--set ...] [--duration S] [--threads N] [--out DIR]
 //! fissure bench [--quick] [--out DIR] [--results FILE] [--only SECTION[,SECTION…]] [--no-gpu]
 //! ```
 //!
 //! `run` simulates a scene file headless and writes PNG frames, an animated GIF and optionally OBJ/PLY meshes,
 //! with a progress bar and a summary table; without any GPU adapter it still simulates and says why it drew
-//! nothing. `view` opens the interactive viewer (`fissure::viewer`).
+//! nothing. `view` opens the interactive viewer (`fissure::viewer`). Both take `--set KEY=VALUE` to override any
+//! scene key. `sweep` runs the product of several keys' values in parallel and writes a CSV of outcomes and a
+//! plot.
 //!
 //! `bench` runs the accuracy, stability and speed harness (see the `harness` module): CSVs, PNG plots and a
 //! Markdown report in `--out` (default `target/fissure-bench`), and with `--results` the report spliced into that
@@ -18,6 +21,7 @@
 mod harness;
 mod plot;
 mod run;
+mod sweep;
 
 use std::path::PathBuf;
 use std::process::ExitCode;
@@ -25,10 +29,13 @@ use std::process::ExitCode;
 const USAGE: &str = "\
 usage: fissure run SCENE [--frames N] [--fps F] [--out DIR] [--backend cpu|gpu] [--size WxH] [--mesh obj|ply]
        fissure view SCENE [--size WxH] [--paused] [--frames N --screenshot FILE]
+       fissure sweep SCENE --set KEY=V1,V2,... [--set ...] [--duration S] [--threads N] [--out DIR]
        fissure bench [--quick] [--out DIR] [--results FILE] [--only SECTION[,SECTION...]] [--no-gpu]
 
   run      simulate a scene file headless: PNG frames, a GIF, a summary (fissure run --help)
   view     open a window on a scene (fissure view --help)
+  sweep    run a scene for every combination of values of some keys, in parallel: a CSV of
+           outcomes and a plot (fissure sweep --help)
   bench    the accuracy, stability and speed harness: work-precision, stability bisection,
            large implicit steps, cost per term, speed (sections: precision, stability,
            large-steps, terms, speed)
@@ -60,6 +67,26 @@ fn main() -> ExitCode {
                     Err(e) => {
                         eprintln!("fissure run: {e}");
                         ExitCode::from(1)
+                    }
+                },
+            }
+        }
+        Some("sweep") => {
+            if args[1..].iter().any(|a| a == "-h" || a == "--help") {
+                println!("{}", sweep::SWEEP_USAGE);
+                return ExitCode::SUCCESS;
+            }
+            match sweep::parse(&args[1..]) {
+                Err(e) => {
+                    eprintln!("fissure sweep: {e}\n\n{}", sweep::SWEEP_USAGE);
+                    ExitCode::from(2)
+                }
+                Ok(cfg) => match sweep::run(&cfg) {
+                    Ok(true) => ExitCode::SUCCESS,
+                    Ok(false) => ExitCode::from(1),
+                    Err(e) => {
+                        eprintln!("fissure sweep: {e}");
+                        ExitCode::from(2)
                     }
                 },
             }

@@ -3,7 +3,8 @@
 use fissure::gpu::{GpuConfig, GpuContext, GpuSolver};
 use fissure::mesh::{write_obj, write_ply};
 use fissure::output::{FrameRenderer, Frames};
-use fissure::scene::Scene;
+use fissure::scene::{Override, Scene};
+use fissure::vtk::{VtkKind, VtkSeries};
 use fissure::{FractureKind, Model, Stage, StageTimers, State, World};
 use std::io::{IsTerminal, Write};
 use std::path::{Path, PathBuf};
@@ -26,20 +27,29 @@ pub struct RunConfig {
     pub wireframe: bool,
     /// Colour surfaces by strain (`--color strain`).
     pub strain: bool,
+    /// Scene keys set from the command line (`--set KEY=VALUE`).
+    pub overrides: Vec<Override>,
 }
 
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum MeshFormat {
     Obj,
     Ply,
+    /// A `.vtp` per frame and `run.pvd` (`fissure::vtk`).
+    Vtk,
+    /// A `.vtu` per frame and `run.pvd`.
+    Vtu,
 }
 
 pub const RUN_USAGE: &str = "\
-usage: fissure run SCENE [--frames N] [--fps F] [--out DIR] [--backend cpu|gpu] [--size WxH]
-                         [--mesh obj|ply] [--no-gif] [--no-png] [--wireframe] [--color body|strain]
+usage: fissure run SCENE [--set KEY=VALUE ...] [--frames N] [--fps F] [--out DIR] [--backend cpu|gpu]
+                         [--size WxH] [--mesh obj|ply|vtk] [--no-gif] [--no-png] [--wireframe]
+                         [--color body|strain]
 
   Simulates a scene file headless and writes PNG frames and an animated GIF of it.
 
+  --set KEY=VALUE   override a scene key, e.g. --set body[0].pressure=4000 --set solver.dt=2e-5
+                    (TOML values; checked as the file is; repeat for more keys)
   --frames N        frames to simulate (default: the scene's duration times the frame rate)
   --fps F           frames per simulated second (default 30)
   --out DIR         output folder (default target/fissure-run/<scene name>)
@@ -48,7 +58,9 @@ usage: fissure run SCENE [--frames N] [--fps F] [--out DIR] [--backend cpu|gpu] 
   --fracture-every N  steps between two fracture passes, on either backend (default 1: every step;
                     larger reads a GPU's state back less often, and fractures are noticed later)
   --size WxH        frame size in pixels (default 640x360)
-  --mesh obj|ply    also write each frame's surface mesh
+  --mesh F          also write each frame's surface mesh: obj, ply, or vtk (ParaView: one .vtp
+                    per frame with velocity, strain, body and damage fields, and run.pvd, the
+                    animation); vtu: the same as .vtu files (for meshio, which reads no .vtp)
   --no-gif          no GIF; --no-png: no PNG frames
   --wireframe       draw the springs over the surfaces
   --color C         colour surfaces by body (default) or strain (blue at rest to red at the tear limit; CPU)
@@ -80,6 +92,7 @@ pub fn parse(args: &[String]) -> Result<RunConfig, String> {
         mesh: None,
         wireframe: false,
         strain: false,
+        overrides: Vec::new(),
     };
     let mut scene = None;
     let mut it = args.iter();
@@ -98,6 +111,7 @@ pub fn parse(args: &[String]) -> Result<RunConfig, String> {
                 }
             }
             "--out" => cfg.out = Some(value("--out")?.into()),
+            "--set" => cfg.overrides.push(Override::parse(&value("--set")?)?),
             "--fracture-every" => {
                 cfg.fracture_every =
                     value("--fracture-every")?.parse().map_err(|e| format!("--fracture-every: {e}"))?;
@@ -117,7 +131,9 @@ pub fn parse(args: &[String]) -> Result<RunConfig, String> {
                 cfg.mesh = Some(match value("--mesh")?.as_str() {
                     "obj" => MeshFormat::Obj,
                     "ply" => MeshFormat::Ply,
-                    other => return Err(format!("--mesh: {other:?} is neither obj nor ply")),
+                    "vtk" | "vtp" => MeshFormat::Vtk,
+                    "vtu" => MeshFormat::Vtu,
+                    other => return Err(format!("--mesh: {other:?} is not obj, ply, vtk or vtu")),
                 })
             }
             "--no-gif" => cfg.gif = false,
@@ -204,12 +220,15 @@ fn export_mesh(dir: &Path, frame: usize, format: MeshFormat, m: &Model<f32>, s: 
     let (text, ext) = match format {
         MeshFormat::Obj => (write_obj(&q, &m.tri_indices), "obj"),
         MeshFormat::Ply => (write_ply(&q, &m.tri_indices), "ply"),
+        // A lone frame; a run writes its series (and the .pvd) through fissure::vtk::VtkSeries.
+        MeshFormat::Vtk => (fissure::vtk::vtk_string(m, s, VtkKind::PolyData), "vtp"),
+        MeshFormat::Vtu => (fissure::vtk::vtk_string(m, s, VtkKind::UnstructuredGrid), "vtu"),
     };
     std::fs::write(dir.join(format!("mesh_{frame:04}.{ext}")), text)
 }
 
 pub fn run(cfg: &RunConfig) -> Result<RunSummary, Box<dyn std::error::Error>> {
-    let scene = Scene::load(&cfg.scene)?;
+    let scene = Scene::load_with(&cfg.scene, &cfg.overrides)?;
     let mut world: World<f32> = scene.world()?;
     let dt = scene.solver.dt;
     let frame_dt = 1.0 / cfg.fps;
@@ -269,6 +288,11 @@ pub fn run(cfg: &RunConfig) -> Result<RunSummary, Box<dyn std::error::Error>> {
     if cfg.mesh.is_some() {
         std::fs::create_dir_all(&out)?;
     }
+    let mut vtk = match cfg.mesh {
+        Some(MeshFormat::Vtk) => Some(VtkSeries::new(&out, "run", VtkKind::PolyData)?),
+        Some(MeshFormat::Vtu) => Some(VtkSeries::new(&out, "run", VtkKind::UnstructuredGrid)?),
+        _ => None,
+    };
 
     let mut progress =
         Progress { tty: std::io::stderr().is_terminal(), total: frames, last_tenth: 0, start: Instant::now() };
@@ -289,9 +313,16 @@ pub fn run(cfg: &RunConfig) -> Result<RunSummary, Box<dyn std::error::Error>> {
                 None => out_frames.capture(&world.model, &world.state, &text)?,
             };
         }
-        if let Some(f) = cfg.mesh {
-            export_mesh(&out, frame, f, &world.model, &world.state)?;
-            meshes += 1;
+        match (cfg.mesh, vtk.as_mut()) {
+            (_, Some(series)) => {
+                series.write(&world.model, &world.state)?;
+                meshes += 1;
+            }
+            (Some(f), None) => {
+                export_mesh(&out, frame, f, &world.model, &world.state)?;
+                meshes += 1;
+            }
+            _ => {}
         }
         progress.show(frame, world.state.time, world.events.len());
     }
@@ -368,13 +399,18 @@ fn print_summary(scene: &Scene, cfg: &RunConfig, s: &RunSummary) {
         println!("| GIF | {} |", g.display());
     }
     if s.meshes > 0 {
-        println!("| meshes | {} |", s.meshes);
+        let what = match cfg.mesh {
+            Some(MeshFormat::Vtk | MeshFormat::Vtu) => " (and run.pvd: open it in ParaView)",
+            _ => "",
+        };
+        println!("| meshes | {}{what} |", s.meshes);
     }
 }
 
 /// `fissure view SCENE`.
 pub const VIEW_USAGE: &str = "\
-usage: fissure view SCENE [--size WxH] [--paused] [--frames N --screenshot FILE] [--script ACTIONS]
+usage: fissure view SCENE [--set KEY=VALUE ...] [--size WxH] [--paused] [--frames N --screenshot FILE]
+                          [--script ACTIONS]
 
   Opens a window on the scene and runs it on the CPU. Mouse: left-drag a body to pull it, left-drag
   elsewhere to orbit, wheel to zoom, right-click to puncture. Keys: space pause, n step, w wind,
@@ -386,12 +422,14 @@ usage: fissure view SCENE [--size WxH] [--paused] [--frames N --screenshot FILE]
 pub fn view(args: &[String]) -> Result<(), Box<dyn std::error::Error>> {
     let mut opts = fissure::viewer::ViewerOptions::default();
     let mut scene_path = None;
+    let mut overrides = Vec::new();
     let mut it = args.iter();
     while let Some(a) = it.next() {
         let mut value = |name: &str| it.next().cloned().ok_or_else(|| format!("{name} needs a value"));
         match a.as_str() {
             "--size" => opts.size = parse_size(&value("--size")?)?,
             "--paused" => opts.paused = true,
+            "--set" => overrides.push(Override::parse(&value("--set")?)?),
             "--frames" => opts.exit_after = Some(value("--frames")?.parse()?),
             "--screenshot" => opts.screenshot = Some(value("--screenshot")?.into()),
             "--script" => {
@@ -409,7 +447,7 @@ pub fn view(args: &[String]) -> Result<(), Box<dyn std::error::Error>> {
     if opts.screenshot.is_some() && opts.exit_after.is_none() {
         opts.exit_after = Some(60);
     }
-    let scene = Scene::load(&path)?;
+    let scene = Scene::load_with(&path, &overrides)?;
     opts.title =
         format!("fissure: {}", if scene.title.is_empty() { path.display().to_string() } else { scene.title.clone() });
     let world = scene.world::<f32>()?;

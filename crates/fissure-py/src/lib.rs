@@ -21,6 +21,7 @@ use pyo3::exceptions::{PyIndexError, PyTypeError, PyValueError};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 
+mod batch;
 mod builder;
 mod convert;
 mod model;
@@ -34,27 +35,6 @@ pub use types::{DampingModel, Integrator, Mesh};
 pub use world::World;
 
 /// The compiled core of the `fissure` package.
-/// Reads a scene file (TOML, see `scenes/` and `fissure::scene`): returns a dict with `world` (a `World` at the
-/// scene's initial state, with its integrator and fracture settings), `dt` \[s\], `duration` \[s\] and `title`.
-/// Unknown keys and bad values raise `ValueError` naming the key; a missing file raises `OSError`.
-#[pyfunction]
-fn load_scene<'py>(py: Python<'py>, path: std::path::PathBuf) -> PyResult<Bound<'py, PyDict>> {
-    use fissure::scene::{Scene, SceneError};
-    let scene = Scene::load(&path).map_err(|e| match e {
-        SceneError::Io { .. } => pyo3::exceptions::PyOSError::new_err(e.to_string()),
-        e => value_err(e),
-    })?;
-    // The scene's own world (its solver and fracture settings): the front end only translates.
-    let rust = scene.world::<f32>().map_err(value_err)?;
-    let world = World::from_world(py, rust)?;
-    let d = PyDict::new(py);
-    d.set_item("world", Py::new(py, world)?)?;
-    d.set_item("dt", scene.solver.dt)?;
-    d.set_item("duration", scene.solver.duration)?;
-    d.set_item("title", scene.title)?;
-    Ok(d)
-}
-
 #[pymodule]
 fn _fissure(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<Integrator>()?;
@@ -65,7 +45,8 @@ fn _fissure(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<State>()?;
     m.add_class::<Solver>()?;
     m.add_class::<World>()?;
-    m.add_function(wrap_pyfunction!(load_scene, m)?)?;
+    m.add_function(wrap_pyfunction!(batch::load_scene, m)?)?;
+    m.add_function(wrap_pyfunction!(batch::run_many, m)?)?;
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     Ok(())
 }

@@ -36,6 +36,15 @@ pub(crate) fn event_dict<'py>(py: Python<'py>, e: &fissure::FractureEvent) -> Py
     Ok(d)
 }
 
+/// Moves the Python objects' model, state and solver into the Rust world, or back (an O(1) swap of arrays).
+fn swap(w: &mut fissure::World<f32>, m: &mut Model, s: &mut State, sv: &mut Solver) {
+    std::mem::swap(&mut w.model, &mut m.inner);
+    std::mem::swap(&mut w.state, &mut s.inner);
+    if let Some(cpu) = w.cpu_solver() {
+        std::mem::swap(cpu, &mut sv.inner);
+    }
+}
+
 impl World {
     /// A Python world around a Rust one: its model, state and solver become the live Python objects.
     pub(crate) fn from_world(py: Python<'_>, mut world: fissure::World<f32>) -> PyResult<Self> {
@@ -58,17 +67,44 @@ impl World {
         let mut solver = self.solver.borrow_mut(py);
         model.check(&state)?;
         let w = &mut self.world;
-        let swap = |w: &mut fissure::World<f32>, m: &mut Model, s: &mut State, sv: &mut Solver| {
-            std::mem::swap(&mut w.model, &mut m.inner);
-            std::mem::swap(&mut w.state, &mut s.inner);
-            if let Some(cpu) = w.cpu_solver() {
-                std::mem::swap(cpu, &mut sv.inner);
-            }
-        };
         swap(w, &mut model, &mut state, &mut solver);
         let out = py.detach(|| f(w));
         swap(w, &mut model, &mut state, &mut solver);
         out.map_err(value_err)
+    }
+
+    /// Advances every world by `duration` in steps of `dt` in parallel, the GIL released (`run_many`).
+    pub(crate) fn advance_many(
+        py: Python<'_>,
+        worlds: &[Bound<'_, World>],
+        duration: f64,
+        dt: f64,
+        threads: Option<usize>,
+    ) -> PyResult<Vec<fissure::scene::Outcome>> {
+        let busy = |what: &str| {
+            PyValueError::new_err(format!("run_many: a {what} appears twice in the batch (each world needs its own)"))
+        };
+        let mut ws = Vec::with_capacity(worlds.len());
+        for w in worlds {
+            ws.push(w.try_borrow_mut().map_err(|_| busy("world"))?);
+        }
+        let mut parts = Vec::with_capacity(ws.len());
+        for w in &ws {
+            let m = w.model.bind(py).try_borrow_mut().map_err(|_| busy("model"))?;
+            let s = w.state.bind(py).try_borrow_mut().map_err(|_| busy("state"))?;
+            let sv = w.solver.bind(py).try_borrow_mut().map_err(|_| busy("solver"))?;
+            m.check(&s)?;
+            parts.push((m, s, sv));
+        }
+        for (w, (m, s, sv)) in ws.iter_mut().zip(parts.iter_mut()) {
+            swap(&mut w.world, m, s, sv);
+        }
+        let mut rust: Vec<&mut fissure::World<f32>> = ws.iter_mut().map(|w| &mut w.world).collect();
+        let out = py.detach(|| fissure::scene::advance_all(&mut rust, duration, dt, threads));
+        for (w, (m, s, sv)) in ws.iter_mut().zip(parts.iter_mut()) {
+            swap(&mut w.world, m, s, sv);
+        }
+        Ok(out)
     }
 
     fn cut<'py>(&mut self, py: Python<'py>, index: usize, core: bool) -> PyResult<Vec<Bound<'py, PyDict>>> {
@@ -189,6 +225,20 @@ impl World {
     /// pinned, on or next to an opening, or an odd valence).
     fn break_core<'py>(&mut self, py: Python<'py>, index: usize) -> PyResult<Vec<Bound<'py, PyDict>>> {
         self.cut(py, index, true)
+    }
+
+    /// Writes the surface now as VTK XML: PolyData for a `.vtp` path (ParaView, PyVista), UnstructuredGrid for
+    /// `.vtu` (also meshio). Points, triangles, point data `velocity` \[m/s\], `strain` and `body`, cell data `body`
+    /// and `damage` (1 on a crack). Another extension raises `ValueError`.
+    fn save_vtk(&self, py: Python<'_>, path: std::path::PathBuf) -> PyResult<()> {
+        if fissure::vtk::VtkKind::from_path(&path).is_none() {
+            return Err(PyValueError::new_err(format!("save_vtk: want a .vtp or .vtu path, got {}", path.display())));
+        }
+        let m = self.model.borrow(py);
+        let s = self.state.borrow(py);
+        m.check(&s)?;
+        fissure::vtk::write_vtk(&path, &m.inner, &s.inner)
+            .map_err(|e| pyo3::exceptions::PyOSError::new_err(format!("{}: {e}", path.display())))
     }
 
     /// Seconds spent per stage (solver stages and `fracture`), with `total` and `steps`.

@@ -59,4 +59,36 @@ impl<R: Real> Model<R> {
         }
         e
     }
+
+    /// Per particle, the largest strain `(l - L0) / L0` of its edge springs at positions `q` (0 for a particle on
+    /// none), and that strain as a fraction of the spring's strain limit, or of `full_scale` for a spring that
+    /// cannot break: 1 is where it tears. What the renderer's strain colours and the VTK export's `strain` and
+    /// `damage` fields show.
+    pub fn particle_strain(&self, q: &[R::V], full_scale: f64) -> (Vec<f64>, Vec<f64>) {
+        let n = self.particle_count().min(q.len());
+        let (mut strain, mut ratio) = (vec![0.0; n], vec![0.0; n]);
+        for i in 0..n {
+            let (mut s_max, mut r_max) = (f64::NEG_INFINITY, 0.0f64);
+            for &e in self.particle_springs.row(i) {
+                let sp = (e >> 1) as usize;
+                if self.spring_kind[sp] != SpringKind::Edge {
+                    continue;
+                }
+                let [a, b] = self.spring_indices[sp];
+                let (a, b) = (a as usize, b as usize);
+                if a >= q.len() || b >= q.len() {
+                    continue;
+                }
+                let l0 = self.spring_rest_length[sp].to_f64();
+                let s = ((q[b] - q[a]).length().to_f64() - l0) / l0;
+                let lim = self.spring_strain_limit[sp].to_f64();
+                s_max = s_max.max(s);
+                r_max = r_max.max(s / if lim.is_finite() { lim } else { full_scale });
+            }
+            if s_max.is_finite() {
+                (strain[i], ratio[i]) = (s_max, r_max);
+            }
+        }
+        (strain, ratio)
+    }
 }

@@ -381,20 +381,10 @@ impl Renderer {
     /// that cannot break are measured against [`STRAIN_FULL_SCALE`]. Call every frame, after
     /// [`Renderer::set_model`] (which puts the body colours back).
     pub fn color_by_strain(&mut self, m: &Model<f32>, q: &[Vec3]) {
+        let (_, ratio) = m.particle_strain(q, STRAIN_FULL_SCALE as f64);
         let colors: Vec<[u8; 4]> = (0..m.particle_count())
             .map(|i| {
-                let mut d = 0.0f32;
-                for &e in m.particle_springs.row(i) {
-                    let sp = (e >> 1) as usize;
-                    if m.spring_kind[sp] != SpringKind::Edge {
-                        continue;
-                    }
-                    let [a, b] = m.spring_indices[sp];
-                    let l0 = m.spring_rest_length[sp];
-                    let strain = ((q[b as usize] - q[a as usize]).length() - l0) / l0;
-                    let lim = m.spring_strain_limit[sp];
-                    d = d.max(strain / if lim.is_finite() { lim } else { STRAIN_FULL_SCALE });
-                }
+                let d = ratio.get(i).copied().unwrap_or(0.0).max(0.0) as f32;
                 pack(heat(d), if m.particle_inv_mass[i] == 0.0 { 0 } else { 255 })
             })
             .collect();

@@ -23,6 +23,7 @@ from ._fissure import (
     World,
     __version__,
     load_scene,
+    run_many,
 )
 
 __all__ = [
@@ -35,5 +36,6 @@ __all__ = [
     "State",
     "World",
     "load_scene",
+    "run_many",
     "__version__",
 ]
