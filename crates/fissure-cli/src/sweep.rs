@@ -13,7 +13,8 @@ usage: fissure sweep SCENE --set KEY=V1,V2,... [--set KEY=...] [--duration S] [-
   Runs the scene once for every combination of the values (the product over the --set keys), in
   parallel, headless on the CPU, and writes DIR/sweep.csv (one row per run: the values, fracture
   events by kind, pieces, gas volume, wall time, and the error of a run that failed) and
-  DIR/sweep.png (fracture events against the first key, one line per combination of the others).
+  DIR/sweep.png (fracture events against the key with the most values, one line per combination of
+  the others).
 
   --set KEY=V1,V2   a scene key and its values (TOML; commas inside [...] belong to a value), e.g.
                     --set body[0].pressure=1000,2000,4000 --set body[0].load_limit=2,3
@@ -190,24 +191,33 @@ pub fn run(cfg: &SweepConfig) -> Result<bool, Box<dyn std::error::Error>> {
     Ok(failed < runs.len())
 }
 
-/// Fracture events against the first key, one line per combination of the other keys (against the run's index
-/// when the first key's values are not numbers).
+/// Fracture events against the key with the most values (the first of equals), one line per combination of the
+/// others; against each value's index when that key's values are not numbers. Failed runs leave gaps.
 fn plot(keys: &[String], runs: &[(Vec<Override>, Outcome)], scene: &str) -> Plot {
-    let numeric = runs.iter().all(|(o, _)| as_number(&o[0].value).is_some());
-    let x_label = if numeric { keys[0].clone() } else { format!("{} (value index)", keys[0]) };
+    let distinct = |k: usize| {
+        let mut v: Vec<String> = runs.iter().map(|(o, _)| o[k].value.to_string()).collect();
+        v.sort();
+        v.dedup();
+        v.len()
+    };
+    let xk = (0..keys.len()).fold(0, |best, k| if distinct(k) > distinct(best) { k } else { best });
+    let numeric = runs.iter().all(|(o, _)| as_number(&o[xk].value).is_some());
+    let x_label = if numeric { keys[xk].clone() } else { format!("{} (value index)", keys[xk]) };
     let mut plot = Plot::new(format!("fracture events: {scene}"), x_label, "fracture events");
     (plot.log_x, plot.log_y) = (false, false);
     let mut groups: Vec<(String, Vec<(f64, f64)>)> = Vec::new();
-    let mut firsts: Vec<String> = Vec::new();
+    let mut seen: Vec<String> = Vec::new();
     for (o, r) in runs {
-        let rest: Vec<String> =
-            o[1..].iter().map(|v| format!("{}={}", v.key.rsplit('.').next().unwrap_or(""), v.value)).collect();
+        let rest: Vec<String> = (0..o.len())
+            .filter(|&k| k != xk)
+            .map(|k| format!("{}={}", o[k].key.rsplit('.').next().unwrap_or(""), o[k].value))
+            .collect();
         let name = if rest.is_empty() { "events".to_string() } else { rest.join(" ") };
-        let first = o[0].value.to_string();
-        let x = as_number(&o[0].value).unwrap_or_else(|| {
-            firsts.iter().position(|f| *f == first).unwrap_or_else(|| {
-                firsts.push(first.clone());
-                firsts.len() - 1
+        let value = o[xk].value.to_string();
+        let x = as_number(&o[xk].value).unwrap_or_else(|| {
+            seen.iter().position(|f| *f == value).unwrap_or_else(|| {
+                seen.push(value.clone());
+                seen.len() - 1
             }) as f64
         });
         let y = if r.error.is_some() { f64::NAN } else { r.events() as f64 };
@@ -216,7 +226,8 @@ fn plot(keys: &[String], runs: &[(Vec<Override>, Outcome)], scene: &str) -> Plot
             None => groups.push((name, vec![(x, y)])),
         }
     }
-    for (k, (name, pts)) in groups.into_iter().enumerate() {
+    for (k, (name, mut pts)) in groups.into_iter().enumerate() {
+        pts.sort_by(|a, b| a.0.total_cmp(&b.0));
         plot.series.push(Series::new(name, pts, PALETTE[k % PALETTE.len()]));
     }
     plot

@@ -125,3 +125,73 @@ fn viewer_under_xvfb_shows_the_ball_and_the_room() {
     assert!(ball > 0.005, "ball covers {:.3} % of the screenshot", 100.0 * ball);
     assert!(room > 0.10, "floor and walls cover {:.1} % of the screenshot", 100.0 * room);
 }
+
+/// `fissure sweep` on the fracture scene, 2 × 3 values, one combination invalid: a CSV of 6 rows (the invalid ones
+/// with their error, the others with outcomes that differ with the pressure) and a PNG plot.
+#[test]
+fn sweep_writes_a_table_and_a_plot_and_keeps_failed_runs() {
+    let out = out_dir("sweep-fracture");
+    let o = fissure()
+        .args([
+            "sweep",
+            "scenes/fracture.toml",
+            "--set",
+            "body[0].load_limit=2.5,-1",
+            "--set",
+            "body[0].pressure=2500,3000,3500",
+            "--duration",
+            "0.2",
+            "--out",
+        ])
+        .arg(&out)
+        .output()
+        .expect("the fissure binary runs");
+    let (stdout, stderr) = (String::from_utf8_lossy(&o.stdout), String::from_utf8_lossy(&o.stderr));
+    assert!(o.status.success(), "{stdout}\n{stderr}");
+    let csv = std::fs::read_to_string(out.join("sweep.csv")).expect("sweep.csv");
+    let rows: Vec<Vec<&str>> = csv.lines().map(|l| l.split(',').collect()).collect();
+    assert_eq!(rows.len(), 7, "{csv}");
+    let col = |name: &str| rows[0].iter().position(|c| *c == name).unwrap_or_else(|| panic!("no {name}: {csv}"));
+    let (status, events, sim) = (col("status"), col("events"), col("simulated_s"));
+    let ok: Vec<&Vec<&str>> = rows[1..].iter().filter(|r| r[status] == "ok").collect();
+    assert_eq!(ok.len(), 3, "{csv}");
+    for r in &rows[1..4] {
+        assert_eq!(r[1], "2.5", "the last key varies fastest: {csv}");
+        assert!((r[sim].parse::<f64>().unwrap() - 0.2).abs() < 1e-9, "{csv}");
+    }
+    for r in &rows[4..] {
+        assert_eq!(r[status], "error", "{csv}");
+        assert!(csv.lines().nth(4).unwrap().contains("load_limit"), "the error names the key: {csv}");
+    }
+    let counts: std::collections::BTreeSet<&str> = ok.iter().map(|r| r[events]).collect();
+    assert!(counts.len() > 1, "the outcomes differ with the pressure: {csv}");
+    let plot = load_png(&out.join("sweep.png")).unwrap_or_else(|e| panic!("{e}"));
+    // The first series is drawn in the palette's first colour: a line of markers, not an empty chart.
+    let line = plot.rgba.chunks_exact(4).filter(|p| p[..3] == [31, 119, 180]).count();
+    assert!((plot.width, plot.height) == (900, 600) && line > 200, "sweep.png: {line} pixels of the series");
+    assert!(stdout.contains("from running in parallel"), "{stdout}");
+}
+
+/// `--set` on `run`: a bad key is an error naming it; a good one changes the run.
+#[test]
+fn run_set_overrides_scene_keys() {
+    let o = fissure()
+        .args(["run", "scenes/ball_drop.toml", "--frames", "1", "--no-png", "--no-gif", "--set", "solver.dtt=1e-4"])
+        .output()
+        .expect("the fissure binary runs");
+    let stderr = String::from_utf8_lossy(&o.stderr);
+    assert!(!o.status.success() && stderr.contains("`solver.dtt`"), "{stderr}");
+    let out = out_dir("run-vtk");
+    let o = fissure()
+        .args(["run", "scenes/fracture.toml", "--frames", "3", "--no-png", "--no-gif", "--mesh", "vtk"])
+        .args(["--set", "body[0].pressure=4000", "--out"])
+        .arg(&out)
+        .output()
+        .expect("the fissure binary runs");
+    let stdout = String::from_utf8_lossy(&o.stdout);
+    assert!(o.status.success(), "{stdout}\n{}", String::from_utf8_lossy(&o.stderr));
+    let pvd = std::fs::read_to_string(out.join("run.pvd")).expect("run.pvd");
+    assert_eq!(pvd.matches("<DataSet").count(), 3, "{pvd}");
+    let frame = std::fs::read_to_string(out.join("run_0002.vtp")).expect("run_0002.vtp");
+    assert!(frame.contains("NumberOfPoints=\"642\"") && frame.contains("Name=\"damage\""), "{}", &frame[..300]);
+}
