@@ -165,7 +165,7 @@ fn sweep_writes_a_table_and_a_plot_and_keeps_failed_runs() {
     }
     let counts: std::collections::BTreeSet<&str> = ok.iter().map(|r| r[events]).collect();
     assert!(counts.len() > 1, "the outcomes differ with the pressure: {csv}");
-    let plot = load_png(&out.join("sweep.png")).unwrap_or_else(|e| panic!("{e}"));
+    let plot = load_png(out.join("sweep.png")).unwrap_or_else(|e| panic!("{e}"));
     // The first series is drawn in the palette's first colour: a line of markers, not an empty chart.
     let line = plot.rgba.chunks_exact(4).filter(|p| p[..3] == [31, 119, 180]).count();
     assert!((plot.width, plot.height) == (900, 600) && line > 200, "sweep.png: {line} pixels of the series");
