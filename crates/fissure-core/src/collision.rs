@@ -21,6 +21,7 @@ use parry3d::shape::{FeatureId, SharedShape, TriMeshFlags};
 
 /// A static or kinematically moving collision shape.
 #[derive(Clone)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
 pub struct Collider {
     /// The shape, in its local frame.
     pub shape: SharedShape,

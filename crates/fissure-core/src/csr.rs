@@ -7,6 +7,7 @@
 
 /// Row `i` holds `items[start[i]..start[i] + len[i]]`.
 #[derive(Clone, Debug, Default, PartialEq, Eq)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
 pub struct Csr {
     /// Row starts.
     pub start: Vec<u32>,
@@ -22,6 +23,7 @@ pub struct Csr {
     pub live: usize,
     /// What changed since the log was last taken ([`Csr::take_edits`]): a mirror of the rows (the GPU's copy)
     /// re-copies only the rows it names.
+    #[cfg_attr(feature = "serde", serde(skip))]
     pub edits: EditLog,
 }
 

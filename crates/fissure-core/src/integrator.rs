@@ -3,6 +3,7 @@
 
 /// The time integrators.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
 pub enum Integrator {
     /// Semi-implicit (symplectic) Euler, the seed's eqs. (3)–(5): `v += dt a(x, v); x += dt v`. Order 1.
     #[default]

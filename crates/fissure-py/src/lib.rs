@@ -25,6 +25,7 @@ mod batch;
 mod builder;
 mod convert;
 mod model;
+mod pickle;
 mod types;
 mod world;
 
@@ -47,6 +48,9 @@ fn _fissure(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<World>()?;
     m.add_function(wrap_pyfunction!(batch::load_scene, m)?)?;
     m.add_function(wrap_pyfunction!(batch::run_many, m)?)?;
+    m.add_function(wrap_pyfunction!(pickle::_model_from_pickle, m)?)?;
+    m.add_function(wrap_pyfunction!(pickle::_state_from_pickle, m)?)?;
+    m.add_function(wrap_pyfunction!(pickle::_world_from_pickle, m)?)?;
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     Ok(())
 }

@@ -82,6 +82,10 @@ impl Model {
         d.set_item("total", e.total())?;
         Ok(d)
     }
+    /// Pickles as arrays (exact; see the `pickle` module).
+    fn __reduce__<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, pyo3::types::PyTuple>> {
+        crate::pickle::reduce_model(py, self)
+    }
     fn __repr__(&self) -> String {
         format!(
             "Model(particles={}, springs={}, triangles={}, bodies={})",
@@ -156,6 +160,10 @@ impl State {
     /// An independent copy.
     fn copy(&self) -> State {
         self.clone()
+    }
+    /// Pickles as arrays (exact).
+    fn __reduce__<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, pyo3::types::PyTuple>> {
+        crate::pickle::reduce_state(py, self)
     }
 }
 

@@ -241,6 +241,12 @@ impl World {
             .map_err(|e| pyo3::exceptions::PyOSError::new_err(format!("{}: {e}", path.display())))
     }
 
+    /// Pickles as its model, state, settings and events (the solver's warm starts and the fracture pass's
+    /// running averages start afresh when unpickled).
+    fn __reduce__<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, pyo3::types::PyTuple>> {
+        crate::pickle::reduce_world(py, self)
+    }
+
     /// Seconds spent per stage (solver stages and `fracture`), with `total` and `steps`.
     fn timers<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
         let mut t = fissure::Solver::timers(&self.solver.borrow(py).inner).clone();

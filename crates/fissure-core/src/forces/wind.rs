@@ -18,6 +18,7 @@ use glam::DVec3;
 
 /// A spatially and temporally varying wind. Units: m/s, Hz, m, kg/m^3.
 #[derive(Clone, Debug, PartialEq)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
 pub struct WindField {
     /// Mean wind velocity `U` \[m/s\]. Default (3, 0, 0).
     pub velocity: DVec3,

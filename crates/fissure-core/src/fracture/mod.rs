@@ -97,6 +97,7 @@ pub use crate::model::edit::{Fan, boundary_next, fans, spring_between};
 
 /// When a limit counts as passed.
 #[derive(Clone, Copy, Debug, PartialEq)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
 pub enum Trigger {
     /// The current strain (or load) passes the limit.
     Instant,
@@ -111,6 +112,7 @@ pub enum Trigger {
 
 /// Settings of the fracture pass.
 #[derive(Clone, Debug, PartialEq)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
 pub struct FractureConfig {
     /// When a limit counts as passed. Default [`Trigger::Instant`].
     pub trigger: Trigger,
@@ -214,6 +216,7 @@ impl Default for FractureConfig {
 
 /// What broke.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
 pub enum FractureKind {
     /// A spring broke (spring mode). Without triangles on it, it is simply removed.
     Spring,
@@ -225,6 +228,7 @@ pub enum FractureKind {
 
 /// One fracture, as reported to the caller.
 #[derive(Clone, Debug, PartialEq)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
 pub struct FractureEvent {
     /// What broke.
     pub kind: FractureKind,

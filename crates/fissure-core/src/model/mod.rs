@@ -82,6 +82,8 @@ macro_rules! model_arrays {
 model_arrays! {
     /// Everything a step reads but does not write. See the crate docs for units.
     #[derive(Clone, Debug, Default)]
+    #[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
+    #[cfg_attr(feature = "serde", serde(bound(serialize = "R: serde::Serialize, R::V: serde::Serialize", deserialize = "R: serde::Deserialize<'de>, R::V: serde::Deserialize<'de>")))]
     pub struct Model<R: Real = f32> {
         group ParticleRow<R> ("One particle (a mass point) of a [`Model`]."), push_particle, reserve_particles {
             /// Initial positions \[m\].
@@ -181,6 +183,7 @@ model_arrays! {
 /// the solver then computes spring forces on contiguous slices, per block of particles, without the per-spring
 /// force buffer and index gather that an irregular mesh needs.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
 pub struct SpringRun {
     /// First spring.
     pub first: u32,

@@ -37,6 +37,7 @@ pub enum Damping {
 
 /// The seed's eq. (2) damping in two forms.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
 pub enum DampingModel {
     /// `kd ((v_j - v_i)·d̂) d̂`: damps stretching only. Rigid rotation is undamped (default).
     #[default]
@@ -58,6 +59,7 @@ pub enum Gas {
 
 /// What a spring represents.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
 pub enum SpringKind {
     /// A mesh edge (structural); the springs the fracture code splits.
     Edge,
@@ -137,6 +139,7 @@ impl Breakable {
 /// volume is taken with a virtual cap over it (a fan from the loop's centroid), so the volume does not depend on
 /// the origin, and its gas leaks out through it (see the `fracture` module).
 #[derive(Clone, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
 pub struct Opening {
     /// The body.
     pub body: u32,
@@ -146,6 +149,7 @@ pub struct Opening {
 
 /// What a body is.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
 pub enum BodyKind {
     /// A closed surface, possibly with gas.
     SoftBody,
@@ -242,6 +246,7 @@ impl Default for ClothOptions {
 /// step and gives them its velocity, which their springs' damping and contact see. Particles that fracture
 /// splits off a handle particle belong to the same handle.
 #[derive(Clone, Debug, PartialEq)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
 pub struct Handle {
     /// Keys `(time [s], offset [m])`, times strictly increasing.
     pub keys: Vec<(f64, DVec3)>,

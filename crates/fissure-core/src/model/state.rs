@@ -5,6 +5,14 @@ use crate::forces::{pressure, spring};
 
 /// Positions and velocities: the only data a step changes.
 #[derive(Clone, Debug, Default, PartialEq)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
+#[cfg_attr(
+    feature = "serde",
+    serde(bound(
+        serialize = "R: serde::Serialize, R::V: serde::Serialize",
+        deserialize = "R: serde::Deserialize<'de>, R::V: serde::Deserialize<'de>"
+    ))
+)]
 pub struct State<R: Real = f32> {
     /// Positions \[m\].
     pub particle_q: Vec<R::V>,

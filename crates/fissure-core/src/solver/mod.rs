@@ -46,6 +46,7 @@ use implicit::ImplicitScratch;
 
 /// Solver settings.
 #[derive(Clone, Debug, PartialEq)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
 pub struct SolverConfig {
     /// The integrator. Default symplectic Euler.
     pub integrator: Integrator,

@@ -7,7 +7,7 @@ import numpy as np
 import numpy.typing as npt
 
 __version__: str
-__all__ = ["DampingModel", "Integrator", "Mesh", "Model", "ModelBuilder", "Solver", "State", "World", "__version__", "load_scene", "run_many"]
+__all__ = ["DampingModel", "Integrator", "Mesh", "Model", "ModelBuilder", "Solver", "State", "World", "__version__", "load_scene", "run_many", "_model_from_pickle", "_state_from_pickle", "_world_from_pickle"]
 
 _Vec3 = tuple[float, float, float]
 
@@ -182,6 +182,7 @@ class ModelBuilder:
 
 @final
 class Model:
+    def __reduce__(self) -> tuple[Any, ...]: ...
     def state(self) -> State: ...
     @property
     def particle_count(self) -> int: ...
@@ -204,6 +205,7 @@ class Model:
 
 @final
 class State:
+    def __reduce__(self) -> tuple[Any, ...]: ...
     @property
     def positions(self) -> npt.NDArray[np.float32]: ...
     @positions.setter
@@ -236,6 +238,7 @@ class Solver:
 
 @final
 class World:
+    def __reduce__(self) -> tuple[Any, ...]: ...
     def __new__(
         cls,
         model: Model,
@@ -278,3 +281,6 @@ def run_many(
     dt: float | None = None,
     threads: int | None = None,
 ) -> dict[str, Any]: ...
+def _model_from_pickle(bytes: bytes) -> Model: ...
+def _state_from_pickle(bytes: bytes) -> State: ...
+def _world_from_pickle(bytes: bytes) -> World: ...
