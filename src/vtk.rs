@@ -1,7 +1,8 @@
 //! VTK output: one XML PolyData file (`.vtp`) per frame and a ParaView collection (`.pvd`) that opens them as an
 //! animation, with the fields a fracture study looks at. ParaView, VisIt and PyVista read them. The same surface
 //! and fields can be written as an XML UnstructuredGrid (`.vtu`, [`VtkKind::UnstructuredGrid`]) for readers
-//! without PolyData: meshio (5.3) reads `.vtu` but not `.vtp`.
+//! without PolyData: meshio (5.3) reads `.vtu` but not `.vtp` (Python's `fissure.vtk.register_meshio()` gives it
+//! a `.vtp` reader).
 //!
 //! Each frame holds the surface as it is then (the topology changes from frame to frame as a body tears; a
 //! collection allows that, one file per step):

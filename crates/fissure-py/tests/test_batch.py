@@ -114,36 +114,20 @@ def test_dask_recipe_matches_run_many() -> None:
     same_outcomes(table, expected)
 
 
-def read_vtp(path: pathlib.Path) -> dict:
-    """The arrays of a .vtp file (ASCII XML PolyData), by section and name: meshio (5.3) reads no .vtp, so the
-    test reads it with the standard library and compares it with the .vtu meshio reads."""
-    import xml.etree.ElementTree as ET
-
-    root = ET.parse(path).getroot()
-    assert root.attrib["type"] == "PolyData"
-    piece = root.find("PolyData/Piece")
-    assert piece is not None
-    out: dict = {"points": int(piece.attrib["NumberOfPoints"]), "polys": int(piece.attrib["NumberOfPolys"])}
-    for section in ("Points", "PointData", "CellData", "Polys"):
-        for a in piece.find(section) or []:
-            dtype = {"Float32": np.float32, "Float64": np.float64}.get(a.attrib["type"], np.int64)
-            values = np.array((a.text or "").split(), dtype=dtype)
-            k = int(a.attrib.get("NumberOfComponents", "1"))
-            out[(section, a.attrib["Name"])] = values.reshape(-1, k) if k > 1 else values
-    return out
-
-
 def test_vtk_frames_read_back_with_meshio(tmp_path: pathlib.Path) -> None:
     meshio = pytest.importorskip("meshio")
+    import fissure.vtk
+
+    fissure.vtk.register_meshio()
     s = fissure.load_scene(FRACTURE)
     world = s["world"]
     counts = []
     for frame in range(5):
-        vtu, vtp = tmp_path / f"frame_{frame}.vtu", tmp_path / f"frame_{frame}.vtp"
-        world.save_vtk(vtu)
+        vtp, vtu = tmp_path / f"frame_{frame}.vtp", tmp_path / f"frame_{frame}.vtu"
         world.save_vtk(vtp)
+        world.save_vtk(vtu)
         m = world.model
-        mesh = meshio.read(vtu)
+        mesh = meshio.read(vtp)
         n, f = m.particle_count, m.tri_count
         assert mesh.points.shape == (n, 3)
         np.testing.assert_array_equal(mesh.points, world.state.positions)
@@ -154,14 +138,13 @@ def test_vtk_frames_read_back_with_meshio(tmp_path: pathlib.Path) -> None:
         damage = mesh.cell_data["damage"][0]
         assert damage.shape == (f,) and mesh.cell_data["body"][0].shape == (f,)
         assert ((0.0 <= damage) & (damage <= 1.0)).all()
-        # The .vtp holds the same surface and fields.
-        p = read_vtp(vtp)
-        assert (p["points"], p["polys"]) == (n, f)
-        np.testing.assert_array_equal(p[("Points", "Points")], mesh.points)
-        np.testing.assert_array_equal(p[("Polys", "connectivity")].reshape(-1, 3), m.triangles)
+        # The .vtu (meshio's own reader, no conversion) holds the same surface and fields.
+        grid = meshio.read(vtu)
+        np.testing.assert_array_equal(grid.points, mesh.points)
+        np.testing.assert_array_equal(grid.cells_dict["triangle"], mesh.cells_dict["triangle"])
         for name in ("velocity", "strain", "body"):
-            np.testing.assert_array_equal(p[("PointData", name)], mesh.point_data[name], err_msg=name)
-        np.testing.assert_array_equal(p[("CellData", "damage")], damage)
+            np.testing.assert_array_equal(grid.point_data[name], mesh.point_data[name], err_msg=name)
+        np.testing.assert_array_equal(grid.cell_data["damage"][0], damage)
         counts.append((n, f))
         world.advance(0.05, s["dt"])
     # The ball broke between frames: the vertex count grew where it did, and some triangles lie on a crack.
@@ -169,6 +152,8 @@ def test_vtk_frames_read_back_with_meshio(tmp_path: pathlib.Path) -> None:
     assert (damage == 1.0).any()
     with pytest.raises(ValueError, match="vtp or .vtu"):
         world.save_vtk(tmp_path / "frame.vtk")
+    with pytest.raises(meshio.ReadError):
+        fissure.vtk.read_vtp(vtu)
 
 
 def test_save_vtk_reports_io_errors(tmp_path: pathlib.Path) -> None:
