@@ -69,18 +69,24 @@ fn scene_err(e: SceneError) -> PyErr {
 /// Reads a scene file (TOML, see `scenes/` and `fissure::scene`): returns a dict with `world` (a `World` at the
 /// scene's initial state, with its integrator and fracture settings), `dt` \[s\], `duration` \[s\] and `title`.
 /// `overrides` sets scene keys without editing the file: `{"body[0].pressure": 4000, "solver.dt": 2e-5}`.
-/// Unknown keys and bad values raise `ValueError` naming the key; a missing file raises `OSError`.
+/// `precision`: "float32" (default) or "float64". Unknown keys and bad values raise `ValueError` naming the key; a
+/// missing file raises `OSError`.
 #[pyfunction]
-#[pyo3(signature = (path, overrides = None))]
+#[pyo3(signature = (path, overrides = None, *, precision = "float32"))]
 pub(crate) fn load_scene<'py>(
     py: Python<'py>,
     path: std::path::PathBuf,
     overrides: Option<&Bound<'py, PyAny>>,
+    precision: &str,
 ) -> PyResult<Bound<'py, PyDict>> {
+    let f64 = crate::precision::parse_precision(precision)?;
     let scene = Scene::load_with(&path, &read_overrides(overrides)?).map_err(scene_err)?;
     // The scene's own world (its solver and fracture settings): the front end only translates.
-    let rust = scene.world::<f32>().map_err(value_err)?;
-    let world = World::from_world(py, rust)?;
+    let world = if f64 {
+        World::from_world(py, scene.world::<f64>().map_err(value_err)?)?
+    } else {
+        World::from_world(py, scene.world::<f32>().map_err(value_err)?)?
+    };
     let d = PyDict::new(py);
     d.set_item("world", Py::new(py, world)?)?;
     d.set_item("dt", scene.solver.dt)?;
@@ -123,9 +129,11 @@ fn outcome_table<'py>(py: Python<'py>, runs: &[Outcome]) -> PyResult<Bound<'py, 
 /// - Worlds: `runs` is a list of `World`s, advanced in place by `duration` \[s\] in steps of `dt` \[s\] (both
 ///   required).
 ///
-/// `threads`: runs at a time (default: one per core).
+/// `threads`: runs at a time (default: one per core). `precision`: of the scenes' worlds, "float32" (default) or
+/// "float64" (worlds keep their own).
 #[pyfunction]
-#[pyo3(signature = (runs, overrides = None, *, duration = None, dt = None, threads = None))]
+#[pyo3(signature = (runs, overrides = None, *, duration = None, dt = None, threads = None, precision = "float32"))]
+#[allow(clippy::too_many_arguments)]
 pub(crate) fn run_many<'py>(
     py: Python<'py>,
     runs: &Bound<'py, PyAny>,
@@ -133,7 +141,9 @@ pub(crate) fn run_many<'py>(
     duration: Option<f64>,
     dt: Option<f64>,
     threads: Option<usize>,
+    precision: &str,
 ) -> PyResult<Bound<'py, PyDict>> {
+    let f64 = crate::precision::parse_precision(precision)?;
     let items: Vec<Bound<'py, PyAny>> =
         runs.extract().map_err(|_| PyTypeError::new_err("run_many: `runs` must be a list of scenes or worlds"))?;
     if threads == Some(0) {
@@ -178,6 +188,12 @@ pub(crate) fn run_many<'py>(
             Ok(Job { scene: path, overrides: own.unwrap_or_else(|| common.clone()), duration })
         })
         .collect::<PyResult<Vec<Job>>>()?;
-    let outcomes = py.detach(|| fissure::scene::run_all::<f32>(&jobs, threads));
+    let outcomes = py.detach(|| {
+        if f64 {
+            fissure::scene::run_all::<f64>(&jobs, threads)
+        } else {
+            fissure::scene::run_all::<f32>(&jobs, threads)
+        }
+    });
     outcome_table(py, &outcomes)
 }

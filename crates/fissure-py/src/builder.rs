@@ -393,9 +393,16 @@ impl ModelBuilder {
         self.inner.particle_count()
     }
 
-    /// The model (float32).
-    fn finalize(&self) -> PyResult<Model> {
-        Ok(Model { inner: self.inner.finalize().map_err(value_err)? })
+    /// The model: `precision="float32"` (the default: fast) or `"float64"` (the reference path: its state,
+    /// solver and world, and every array they give, are float64).
+    #[pyo3(signature = (*, precision = "float32"))]
+    fn finalize(&self, precision: &str) -> PyResult<Model> {
+        let inner = if crate::precision::parse_precision(precision)? {
+            crate::precision::Prec::F64(self.inner.finalize().map_err(value_err)?)
+        } else {
+            crate::precision::Prec::F32(self.inner.finalize().map_err(value_err)?)
+        };
+        Ok(Model { inner })
     }
 }
 

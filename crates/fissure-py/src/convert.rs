@@ -114,12 +114,12 @@ pub(crate) fn vec3(name: &str, v: (f64, f64, f64)) -> PyResult<DVec3> {
     Ok(d)
 }
 
-pub(crate) fn points_out<'py>(
+pub(crate) fn points_out<'py, R: numpy::Element>(
     py: Python<'py>,
-    p: impl ExactSizeIterator<Item = [f32; 3]>,
-) -> Bound<'py, PyArray2<f32>> {
+    p: impl ExactSizeIterator<Item = [R; 3]>,
+) -> Bound<'py, PyArray2<R>> {
     let n = p.len();
-    let flat: Vec<f32> = p.flatten().collect();
+    let flat: Vec<R> = p.flatten().collect();
     numpy::PyArray1::from_vec(py, flat).reshape([n, 3]).expect("n * 3 elements")
 }
 
@@ -127,7 +127,11 @@ pub(crate) fn f32x3(name: &str, v: (f64, f64, f64)) -> PyResult<Vec3> {
     Ok(vec3(name, v)?.as_vec3())
 }
 
-pub(crate) fn write_points(name: &str, dst: &mut [Vec3], src: &Bound<'_, PyAny>) -> PyResult<()> {
+pub(crate) fn write_points<V: fissure::Vector3<R>, R: fissure::Real>(
+    name: &str,
+    dst: &mut [V],
+    src: &Bound<'_, PyAny>,
+) -> PyResult<()> {
     let pts = read_points(name, src)?;
     if pts.len() != dst.len() {
         return Err(PyValueError::new_err(format!(
@@ -137,15 +141,20 @@ pub(crate) fn write_points(name: &str, dst: &mut [Vec3], src: &Bound<'_, PyAny>)
         )));
     }
     for (d, p) in dst.iter_mut().zip(pts) {
-        *d = p.as_vec3();
+        *d = V::from_dvec3(p);
     }
     Ok(())
 }
 
-pub(crate) fn copy_into(name: &str, src: &[Vec3], out: &Bound<'_, PyAny>) -> PyResult<()> {
-    let arr = out.cast::<PyArray2<f32>>().map_err(|_| {
+pub(crate) fn copy_into<V: fissure::Vector3<R>, R: fissure::Real + numpy::Element>(
+    name: &str,
+    src: &[V],
+    out: &Bound<'_, PyAny>,
+) -> PyResult<()> {
+    let arr = out.cast::<PyArray2<R>>().map_err(|_| {
         PyTypeError::new_err(format!(
-            "{name} must be a float32 numpy array of shape ({}, 3), got {}",
+            "{name} must be a {} numpy array of shape ({}, 3), got {}",
+            if std::mem::size_of::<R>() == 4 { "float32" } else { "float64" },
             src.len(),
             type_name(out)
         ))

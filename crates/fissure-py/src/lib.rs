@@ -26,6 +26,7 @@ mod builder;
 mod convert;
 mod model;
 mod pickle;
+mod precision;
 mod types;
 mod world;
 

@@ -1,79 +1,97 @@
-//! `Model` (everything a step reads), `State` (positions, velocities, time) and the CPU `Solver`.
+//! `Model` (everything a step reads), `State` (positions, velocities, time) and the CPU `Solver`, each in
+//! float32 or float64 (`precision` module).
 
+use crate::precision::{Prec, each, pair};
 use crate::*;
 
-/// Everything a step reads: masses, springs, triangles, bodies, colliders (float32).
+pub(crate) type AnyModel = Prec<RModel<f32>, RModel<f64>>;
+pub(crate) type AnyState = Prec<RState<f32>, RState<f64>>;
+pub(crate) type AnySolver = Prec<fissure::CpuSolver<f32>, fissure::CpuSolver<f64>>;
+
+/// Everything a step reads: masses, springs, triangles, bodies, colliders (float32 or float64: `precision`).
 #[pyclass(module = "fissure._fissure")]
 pub struct Model {
-    pub(crate) inner: RModel<f32>,
+    pub(crate) inner: AnyModel,
 }
 
 #[pymethods]
 impl Model {
     /// The initial state.
     pub(crate) fn state(&self) -> State {
-        State { inner: self.inner.state() }
+        State {
+            inner: match &self.inner {
+                Prec::F32(m) => Prec::F32(m.state()),
+                Prec::F64(m) => Prec::F64(m.state()),
+            },
+        }
+    }
+    /// "float32" or "float64": the precision of the model and of every array it gives.
+    #[getter]
+    fn precision(&self) -> &'static str {
+        self.inner.name()
     }
     /// Number of particles.
     #[getter]
     fn particle_count(&self) -> usize {
-        self.inner.particle_count()
+        each!(&self.inner, m => m.particle_count())
     }
     /// Number of springs.
     #[getter]
     fn spring_count(&self) -> usize {
-        self.inner.spring_count()
+        each!(&self.inner, m => m.spring_count())
     }
     /// Number of triangles.
     #[getter]
     fn tri_count(&self) -> usize {
-        self.inner.tri_count()
+        each!(&self.inner, m => m.tri_count())
     }
     /// Number of bodies.
     #[getter]
     fn body_count(&self) -> usize {
-        self.inner.body_count()
+        each!(&self.inner, m => m.body_count())
     }
     /// Triangles, a new uint32 `(F, 3)` array.
     #[getter]
     fn triangles<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray2<u32>> {
-        let flat: Vec<u32> = self.inner.tri_indices.iter().flatten().copied().collect();
-        numpy::PyArray1::from_vec(py, flat).reshape([self.inner.tri_count(), 3]).expect("F * 3 elements")
+        let tris = each!(&self.inner, m => &m.tri_indices);
+        let flat: Vec<u32> = tris.iter().flatten().copied().collect();
+        numpy::PyArray1::from_vec(py, flat).reshape([tris.len(), 3]).expect("F * 3 elements")
     }
     /// Springs, a new uint32 `(S, 2)` array.
     #[getter]
     fn springs<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray2<u32>> {
-        let flat: Vec<u32> = self.inner.spring_indices.iter().flatten().copied().collect();
-        numpy::PyArray1::from_vec(py, flat).reshape([self.inner.spring_count(), 2]).expect("S * 2 elements")
+        let springs = each!(&self.inner, m => &m.spring_indices);
+        let flat: Vec<u32> = springs.iter().flatten().copied().collect();
+        numpy::PyArray1::from_vec(py, flat).reshape([springs.len(), 2]).expect("S * 2 elements")
     }
     /// Total mass \[kg\].
     fn total_mass(&self) -> f64 {
-        self.inner.total_mass()
+        each!(&self.inner, m => m.total_mass())
     }
     /// Enclosed volume of each body \[m^3\] (0 without gas).
     fn body_volumes(&self, state: &State) -> PyResult<Vec<f64>> {
         self.check(state)?;
-        Ok(self.inner.body_volumes(&state.inner))
+        pair!(&self.inner, &state.inner, (m, s) => m.body_volumes(s))
     }
     /// Gas pressure of each body \[Pa\].
     fn body_pressures(&self, state: &State) -> PyResult<Vec<f64>> {
         self.check(state)?;
-        Ok(self.inner.body_pressures(&state.inner))
+        pair!(&self.inner, &state.inner, (m, s) => m.body_pressures(s))
     }
     /// Linear momentum [kg·m/s].
     fn momentum(&self, state: &State) -> PyResult<(f64, f64, f64)> {
         self.check(state)?;
-        Ok(self.inner.momentum(&state.inner).into())
+        pair!(&self.inner, &state.inner, (m, s) => m.momentum(s).into())
     }
     /// Centre of mass \[m\].
     fn center_of_mass(&self, state: &State) -> PyResult<(f64, f64, f64)> {
         self.check(state)?;
-        Ok(self.inner.center_of_mass(&state.inner).into())
+        pair!(&self.inner, &state.inner, (m, s) => m.center_of_mass(s).into())
     }
     /// Energies \[J\]: kinetic, spring, gas, gravity, total.
     fn energy<'py>(&self, py: Python<'py>, state: &State) -> PyResult<Bound<'py, PyDict>> {
         self.check(state)?;
-        let e = self.inner.energy(&state.inner);
+        let e = pair!(&self.inner, &state.inner, (m, s) => m.energy(s))?;
         let d = PyDict::new(py);
         d.set_item("kinetic", e.kinetic)?;
         d.set_item("spring", e.spring)?;
@@ -87,24 +105,23 @@ impl Model {
         crate::pickle::reduce_model(py, self)
     }
     fn __repr__(&self) -> String {
-        format!(
-            "Model(particles={}, springs={}, triangles={}, bodies={})",
-            self.inner.particle_count(),
-            self.inner.spring_count(),
-            self.inner.tri_count(),
-            self.inner.body_count()
-        )
+        each!(&self.inner, m => format!(
+            "Model(particles={}, springs={}, triangles={}, bodies={}, precision={})",
+            m.particle_count(),
+            m.spring_count(),
+            m.tri_count(),
+            m.body_count(),
+            self.inner.name()
+        ))
     }
 }
 
 impl Model {
+    /// The state fits the model: the same precision and particle count.
     pub(crate) fn check(&self, s: &State) -> PyResult<()> {
-        if s.inner.particle_q.len() != self.inner.particle_count() {
-            return Err(PyValueError::new_err(format!(
-                "state has {} particles but the model has {}",
-                s.inner.particle_q.len(),
-                self.inner.particle_count()
-            )));
+        let (n, k) = pair!(&self.inner, &s.inner, (m, s) => (m.particle_count(), s.particle_q.len()))?;
+        if n != k {
+            return Err(PyValueError::new_err(format!("state has {k} particles but the model has {n}")));
         }
         Ok(())
     }
@@ -114,48 +131,54 @@ impl Model {
 #[pyclass(module = "fissure._fissure")]
 #[derive(Clone)]
 pub struct State {
-    pub(crate) inner: RState<f32>,
+    pub(crate) inner: AnyState,
 }
 
 #[pymethods]
 impl State {
-    /// Positions: a new float32 `(N, 3)` array (a copy; see `copy_positions_into`).
+    /// Positions: a new `(N, 3)` array of the state's precision, float32 or float64 (a copy; see
+    /// `copy_positions_into`).
     #[getter]
-    fn positions<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray2<f32>> {
-        points_out(py, self.inner.particle_q.iter().map(|v| v.to_array()))
+    fn positions<'py>(&self, py: Python<'py>) -> Bound<'py, PyAny> {
+        each!(&self.inner, s => points_out(py, s.particle_q.iter().map(|v| v.to_array())).into_any())
     }
     /// Sets positions from an `(N, 3)` float array.
     #[setter]
     fn set_positions(&mut self, value: &Bound<'_, PyAny>) -> PyResult<()> {
-        write_points("positions", &mut self.inner.particle_q, value)
+        each!(&mut self.inner, s => write_points("positions", &mut s.particle_q, value))
     }
-    /// Velocities: a new float32 `(N, 3)` array.
+    /// Velocities: a new `(N, 3)` array of the state's precision.
     #[getter]
-    fn velocities<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray2<f32>> {
-        points_out(py, self.inner.particle_qd.iter().map(|v| v.to_array()))
+    fn velocities<'py>(&self, py: Python<'py>) -> Bound<'py, PyAny> {
+        each!(&self.inner, s => points_out(py, s.particle_qd.iter().map(|v| v.to_array())).into_any())
     }
     /// Sets velocities from an `(N, 3)` float array.
     #[setter]
     fn set_velocities(&mut self, value: &Bound<'_, PyAny>) -> PyResult<()> {
-        write_points("velocities", &mut self.inner.particle_qd, value)
+        each!(&mut self.inner, s => write_points("velocities", &mut s.particle_qd, value))
     }
     /// Simulation time \[s\].
     #[getter]
     fn time(&self) -> f64 {
-        self.inner.time
+        each!(&self.inner, s => s.time)
     }
     /// Number of particles.
     #[getter]
     fn particle_count(&self) -> usize {
-        self.inner.particle_q.len()
+        each!(&self.inner, s => s.particle_q.len())
     }
-    /// Copies positions into `out`, a C-contiguous float32 `(N, 3)` array, without allocating.
+    /// "float32" or "float64".
+    #[getter]
+    fn precision(&self) -> &'static str {
+        self.inner.name()
+    }
+    /// Copies positions into `out`, a C-contiguous `(N, 3)` array of the state's precision, without allocating.
     fn copy_positions_into(&self, out: &Bound<'_, PyAny>) -> PyResult<()> {
-        copy_into("out", &self.inner.particle_q, out)
+        each!(&self.inner, s => copy_into("out", &s.particle_q, out))
     }
-    /// Copies velocities into `out`, a C-contiguous float32 `(N, 3)` array, without allocating.
+    /// Copies velocities into `out`, a C-contiguous `(N, 3)` array of the state's precision, without allocating.
     fn copy_velocities_into(&self, out: &Bound<'_, PyAny>) -> PyResult<()> {
-        copy_into("out", &self.inner.particle_qd, out)
+        each!(&self.inner, s => copy_into("out", &s.particle_qd, out))
     }
     /// An independent copy.
     fn copy(&self) -> State {
@@ -167,10 +190,27 @@ impl State {
     }
 }
 
-/// The CPU solver (rayon threads, deterministic).
+/// The CPU solver (rayon threads, deterministic). It takes the precision of the model it steps (a float32 solver
+/// given a float64 model becomes a float64 one, with the same settings, on its first step).
 #[pyclass(module = "fissure._fissure")]
 pub struct Solver {
-    pub(crate) inner: fissure::CpuSolver<f32>,
+    pub(crate) inner: AnySolver,
+}
+
+impl Solver {
+    /// The settings.
+    pub(crate) fn config(&self) -> SolverConfig {
+        each!(&self.inner, s => s.config.clone())
+    }
+
+    /// Makes the solver the precision `f64` says (a new solver with the same settings if it is not).
+    pub(crate) fn ensure(&mut self, f64: bool) {
+        if self.inner.is_f64() != f64 {
+            let c = self.config();
+            self.inner =
+                if f64 { Prec::F64(fissure::CpuSolver::new(c)) } else { Prec::F32(fissure::CpuSolver::new(c)) };
+        }
+    }
 }
 
 /// Solver settings from keywords; the core checks them (`SolverConfig::validate`, whose message names the keyword).
@@ -214,32 +254,47 @@ impl Solver {
         substep_safety: Option<f64>,
     ) -> PyResult<Self> {
         let c = config(integrator, cg_tolerance, cg_max_iterations, substep_safety)?;
-        Ok(Solver { inner: fissure::CpuSolver::new(c) })
+        Ok(Solver { inner: Prec::F32(fissure::CpuSolver::new(c)) })
     }
 
     /// Advances `state` by `steps` steps of `dt` \[s\], with the GIL released.
     #[pyo3(signature = (model, state, dt, steps = 1))]
     fn step(&mut self, py: Python<'_>, model: &Model, state: &mut State, dt: f64, steps: usize) -> PyResult<()> {
         model.check(state)?;
+        self.ensure(model.inner.is_f64());
         let (solver, m, s) = (&mut self.inner, &model.inner, &mut state.inner);
-        py.detach(|| {
+        fn run<R: fissure::Real>(
+            solver: &mut fissure::CpuSolver<R>,
+            m: &RModel<R>,
+            s: &mut RState<R>,
+            dt: f64,
+            steps: usize,
+        ) -> Result<(), fissure::StepError> {
             for _ in 0..steps {
                 fissure::Solver::step(solver, m, s, dt)?;
             }
-            Ok::<(), fissure::StepError>(())
-        })
-        .map_err(value_err)
+            Ok(())
+        }
+        let out = py.detach(|| match (solver, m, s) {
+            (Prec::F32(sv), Prec::F32(m), Prec::F32(s)) => Ok(run(sv, m, s, dt, steps)),
+            (Prec::F64(sv), Prec::F64(m), Prec::F64(s)) => Ok(run(sv, m, s, dt, steps)),
+            (_, m, s) => Err((m.name(), s.name())),
+        });
+        match out {
+            Ok(r) => r.map_err(value_err),
+            Err((a, b)) => Err(crate::precision::mixed(a, b)),
+        }
     }
 
     /// Seconds spent per stage so far, with `total` and `steps`.
     fn timers<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
-        timers_dict(py, fissure::Solver::timers(&self.inner))
+        each!(&self.inner, s => timers_dict(py, fissure::Solver::timers(s)))
     }
 
     /// What the contact pass did: the last step's `candidates`, `near`, `pushed` and `capped` pairs/particles,
     /// and totals since the solver started (`steps`, `builds`, `near_total`, `pushed_total`, `capped_total`).
     fn contact_stats<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
-        let c = self.inner.contact_stats();
+        let c = each!(&self.inner, s => s.contact_stats());
         let d = PyDict::new(py);
         for (k, v) in [
             ("candidates", c.candidates as u64),

@@ -7,6 +7,8 @@
 //! solver's warm-started estimates and the fracture pass's running averages are not kept: an unpickled world
 //! goes on from that state as a new world would (bit-identical to one built from the same model and state).
 
+use crate::model::{AnyModel, AnyState};
+use crate::precision::{Prec, Precision, each};
 use crate::*;
 use pyo3::types::{PyBytes, PyTuple};
 use serde::{Deserialize, Serialize};
@@ -28,8 +30,8 @@ fn decode<'a, T: Deserialize<'a>>(what: &str, bytes: &'a [u8]) -> PyResult<T> {
     postcard::from_bytes(body).map_err(|e| PyValueError::new_err(format!("damaged pickle of a fissure {what}: {e}")))
 }
 
-fn checked(m: fissure::Model<f32>) -> PyResult<fissure::Model<f32>> {
-    fissure::check_invariants(&m)
+fn checked(m: AnyModel) -> PyResult<AnyModel> {
+    each!(&m, m => fissure::check_invariants(m))
         .map_err(|e| PyValueError::new_err(format!("damaged pickle of a fissure model: {e}")))?;
     Ok(m)
 }
@@ -42,8 +44,8 @@ fn reduce<'py>(py: Python<'py>, constructor: &str, bytes: Vec<u8>) -> PyResult<B
 
 #[derive(Serialize, Deserialize)]
 struct WorldPickle {
-    model: fissure::Model<f32>,
-    state: fissure::State<f32>,
+    model: AnyModel,
+    state: AnyState,
     solver: fissure::SolverConfig,
     fracture: fissure::FractureConfig,
     fracture_every: usize,
@@ -65,10 +67,10 @@ pub(crate) fn reduce_world<'py>(py: Python<'py>, w: &World) -> PyResult<Bound<'p
     let p = WorldPickle {
         model: w.model.borrow(py).inner.clone(),
         state: w.state.borrow(py).inner.clone(),
-        solver: w.solver.borrow(py).inner.config.clone(),
-        fracture: w.world.fracture.config.clone(),
-        fracture_every: w.world.fracture_every,
-        events: w.world.events.clone(),
+        solver: w.solver.borrow(py).config(),
+        fracture: each!(&w.world, w => w.fracture.config.clone()),
+        fracture_every: each!(&w.world, w => w.fracture_every),
+        events: each!(&w.world, w => w.events.clone()),
     };
     reduce(py, "_world_from_pickle", encode("world", &p)?)
 }
@@ -85,19 +87,35 @@ pub(crate) fn _state_from_pickle(bytes: &[u8]) -> PyResult<State> {
     Ok(State { inner: decode("state", bytes)? })
 }
 
+fn rebuild<R: Precision>(
+    py: Python<'_>,
+    model: RModel<R>,
+    state: RState<R>,
+    p: (fissure::SolverConfig, fissure::FractureConfig, usize, Vec<fissure::FractureEvent>),
+) -> PyResult<World> {
+    let n = model.particle_count();
+    if state.particle_q.len() != n || state.particle_qd.len() != n {
+        return Err(PyValueError::new_err("damaged pickle of a fissure world: the state does not fit the model"));
+    }
+    let (solver, fracture, every, events) = p;
+    let mut w = fissure::World::new(model, solver).with_fracture(fracture);
+    w.state = state;
+    w.fracture_every = every.max(1);
+    w.events = events;
+    World::from_world(py, w)
+}
+
 /// Unpickles a `World`.
 #[pyfunction]
 pub(crate) fn _world_from_pickle(py: Python<'_>, bytes: &[u8]) -> PyResult<World> {
     let p: WorldPickle = decode("world", bytes)?;
     let model = checked(p.model)?;
-    if p.state.particle_q.len() != model.particle_count() || p.state.particle_qd.len() != model.particle_count() {
-        return Err(PyValueError::new_err("damaged pickle of a fissure world: the state does not fit the model"));
-    }
     p.solver.validate().map_err(value_err)?;
     p.fracture.validate().map_err(|e| core_err(e, &[]))?;
-    let mut w = fissure::World::new(model, p.solver).with_fracture(p.fracture);
-    w.state = p.state;
-    w.fracture_every = p.fracture_every.max(1);
-    w.events = p.events;
-    World::from_world(py, w)
+    let settings = (p.solver, p.fracture, p.fracture_every, p.events);
+    match (model, p.state) {
+        (Prec::F32(m), Prec::F32(s)) => rebuild(py, m, s, settings),
+        (Prec::F64(m), Prec::F64(s)) => rebuild(py, m, s, settings),
+        _ => Err(PyValueError::new_err("damaged pickle of a fissure world: model and state differ in precision")),
+    }
 }

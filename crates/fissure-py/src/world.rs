@@ -1,6 +1,7 @@
 //! `World`: the Rust `fissure::World` (the one stepping path: step, fracture, notify) behind a Python class.
 
 use crate::model::timers_dict;
+use crate::precision::{AnyWorld, Prec, Precision, each, mixed, pair};
 use crate::*;
 
 /// A model, its state, a solver and the fracture pass, stepped together.
@@ -15,7 +16,7 @@ pub struct World {
     pub(crate) solver: Py<Solver>,
     /// The Rust world: holds the fracture pass and the events; its model, state and solver are the Python
     /// objects' only while a call runs (between calls it holds empty placeholders, swapped in and out in O(1)).
-    pub(crate) world: fissure::World<f32>,
+    pub(crate) world: AnyWorld,
 }
 
 pub(crate) fn event_dict<'py>(py: Python<'py>, e: &fissure::FractureEvent) -> PyResult<Bound<'py, PyDict>> {
@@ -36,40 +37,61 @@ pub(crate) fn event_dict<'py>(py: Python<'py>, e: &fissure::FractureEvent) -> Py
     Ok(d)
 }
 
-/// Moves the Python objects' model, state and solver into the Rust world, or back (an O(1) swap of arrays).
-fn swap(w: &mut fissure::World<f32>, m: &mut Model, s: &mut State, sv: &mut Solver) {
-    std::mem::swap(&mut w.model, &mut m.inner);
-    std::mem::swap(&mut w.state, &mut s.inner);
+fn swap_one<R: fissure::Real>(
+    w: &mut fissure::World<R>,
+    m: &mut RModel<R>,
+    s: &mut RState<R>,
+    sv: &mut fissure::CpuSolver<R>,
+) {
+    std::mem::swap(&mut w.model, m);
+    std::mem::swap(&mut w.state, s);
     if let Some(cpu) = w.cpu_solver() {
-        std::mem::swap(cpu, &mut sv.inner);
+        std::mem::swap(cpu, sv);
     }
+}
+
+/// Moves the Python objects' model, state and solver into the Rust world, or back (an O(1) swap of arrays).
+/// All four must have one precision (the solver takes the world's).
+fn swap(w: &mut AnyWorld, m: &mut Model, s: &mut State, sv: &mut Solver) -> PyResult<()> {
+    sv.ensure(w.is_f64());
+    match (w, &mut m.inner, &mut s.inner, &mut sv.inner) {
+        (Prec::F32(w), Prec::F32(m), Prec::F32(s), Prec::F32(sv)) => swap_one(w, m, s, sv),
+        (Prec::F64(w), Prec::F64(m), Prec::F64(s), Prec::F64(sv)) => swap_one(w, m, s, sv),
+        (w, m, s, _) => return Err(mixed(w.name(), if m.name() != w.name() { m.name() } else { s.name() })),
+    }
+    Ok(())
 }
 
 impl World {
     /// A Python world around a Rust one: its model, state and solver become the live Python objects.
-    pub(crate) fn from_world(py: Python<'_>, mut world: fissure::World<f32>) -> PyResult<Self> {
+    pub(crate) fn from_world<R: Precision>(py: Python<'_>, mut world: fissure::World<R>) -> PyResult<Self> {
         // Moved out, not copied: between calls the Rust world holds empty placeholders.
-        let model = Model { inner: std::mem::take(&mut world.model) };
-        let state = State { inner: std::mem::take(&mut world.state) };
+        let model = Model { inner: R::model(std::mem::take(&mut world.model)) };
+        let state = State { inner: R::state(std::mem::take(&mut world.state)) };
         let cpu = world.cpu_solver().ok_or_else(|| PyValueError::new_err("the Python World steps on the CPU"))?;
-        let solver = Solver { inner: std::mem::take(cpu) };
-        Ok(World { model: Py::new(py, model)?, state: Py::new(py, state)?, solver: Py::new(py, solver)?, world })
+        let solver = Solver { inner: R::solver(std::mem::take(cpu)) };
+        Ok(World {
+            model: Py::new(py, model)?,
+            state: Py::new(py, state)?,
+            solver: Py::new(py, solver)?,
+            world: R::world(world),
+        })
     }
 
     /// Runs `f` on the Rust world holding the Python objects' model, state and solver, with the GIL released.
     fn with_world<T: Send>(
         &mut self,
         py: Python<'_>,
-        f: impl FnOnce(&mut fissure::World<f32>) -> Result<T, fissure::StepError> + Send,
+        f: impl FnOnce(&mut AnyWorld) -> Result<T, fissure::StepError> + Send,
     ) -> PyResult<T> {
         let mut model = self.model.borrow_mut(py);
         let mut state = self.state.borrow_mut(py);
         let mut solver = self.solver.borrow_mut(py);
         model.check(&state)?;
         let w = &mut self.world;
-        swap(w, &mut model, &mut state, &mut solver);
+        swap(w, &mut model, &mut state, &mut solver)?;
         let out = py.detach(|| f(w));
-        swap(w, &mut model, &mut state, &mut solver);
+        swap(w, &mut model, &mut state, &mut solver)?;
         out.map_err(value_err)
     }
 
@@ -96,27 +118,40 @@ impl World {
             m.check(&s)?;
             parts.push((m, s, sv));
         }
-        for (w, (m, s, sv)) in ws.iter_mut().zip(parts.iter_mut()) {
-            swap(&mut w.world, m, s, sv);
+        if ws.iter().any(|w| w.world.is_f64() != ws[0].world.is_f64()) {
+            return Err(mixed("float32", "float64"));
         }
-        let mut rust: Vec<&mut fissure::World<f32>> = ws.iter_mut().map(|w| &mut w.world).collect();
-        let out = py.detach(|| fissure::scene::advance_all(&mut rust, duration, dt, threads));
         for (w, (m, s, sv)) in ws.iter_mut().zip(parts.iter_mut()) {
-            swap(&mut w.world, m, s, sv);
+            swap(&mut w.world, m, s, sv)?;
+        }
+        let (mut single, mut double) = (Vec::new(), Vec::new());
+        for w in ws.iter_mut() {
+            match &mut w.world {
+                Prec::F32(w) => single.push(w),
+                Prec::F64(w) => double.push(w),
+            }
+        }
+        let out = py.detach(|| {
+            if double.is_empty() {
+                fissure::scene::advance_all(&mut single, duration, dt, threads)
+            } else {
+                fissure::scene::advance_all(&mut double, duration, dt, threads)
+            }
+        });
+        for (w, (m, s, sv)) in ws.iter_mut().zip(parts.iter_mut()) {
+            swap(&mut w.world, m, s, sv)?;
         }
         Ok(out)
     }
 
     fn cut<'py>(&mut self, py: Python<'py>, index: usize, core: bool) -> PyResult<Vec<Bound<'py, PyDict>>> {
-        let count = {
-            let m = &self.model.borrow(py).inner;
-            if core { m.particle_count() } else { m.spring_count() }
-        };
+        let count = each!(&self.model.borrow(py).inner, m => if core { m.particle_count() } else { m.spring_count() });
         if index >= count {
             let what = if core { "particle" } else { "spring" };
             return Err(PyIndexError::new_err(format!("{what} {index} out of range (model has {count})")));
         }
-        let new = self.with_world(py, |w| if core { w.break_core(index) } else { w.break_spring(index) })?;
+        let new =
+            self.with_world(py, |w| each!(w, w => if core { w.break_core(index) } else { w.break_spring(index) }))?;
         new.iter().map(|e| event_dict(py, e)).collect()
     }
 }
@@ -160,7 +195,13 @@ impl World {
         config.validate().map_err(|e| core_err(e, &[]))?;
         let solver = Solver::new(integrator, cg_tolerance, cg_max_iterations, substep_safety)?;
         // An empty placeholder model: the Python objects' contents are swapped in for each call.
-        let rust = fissure::World::new(fissure::Model::default(), solver.inner.config.clone()).with_fracture(config);
+        let f64 = model.borrow(py).inner.is_f64();
+        let c = solver.config();
+        let rust = if f64 {
+            Prec::F64(fissure::World::new(fissure::Model::default(), c).with_fracture(config))
+        } else {
+            Prec::F32(fissure::World::new(fissure::Model::default(), c).with_fracture(config))
+        };
         let state = model.borrow(py).state();
         Ok(World { model, state: Py::new(py, state)?, solver: Py::new(py, solver)?, world: rust })
     }
@@ -183,13 +224,13 @@ impl World {
     /// Simulation time \[s\].
     #[getter]
     fn time(&self, py: Python<'_>) -> f64 {
-        self.state.borrow(py).inner.time
+        each!(&self.state.borrow(py).inner, s => s.time)
     }
     /// Every fracture event so far, as dicts: `kind` ("spring", "core" or "detach"), `time` \[s\], `position` \[m\],
     /// `body`, `spring`, `vertex`, `new_particles`, `new_body`.
     #[getter]
     fn events<'py>(&self, py: Python<'py>) -> PyResult<Vec<Bound<'py, PyDict>>> {
-        self.world.events.iter().map(|e| event_dict(py, e)).collect()
+        each!(&self.world, w => w.events.iter().map(|e| event_dict(py, e)).collect())
     }
 
     /// `steps` steps of `dt` \[s\] (each followed by the fracture pass), GIL released. Returns the number of new
@@ -199,7 +240,7 @@ impl World {
         self.with_world(py, |w| {
             let mut events = 0;
             for _ in 0..steps {
-                events += w.step(dt)?.events.len();
+                events += each!(&mut *w, w => w.step(dt)?.events.len());
             }
             Ok(events)
         })
@@ -213,7 +254,7 @@ impl World {
                 "need dt > 0 and duration >= 0, got dt = {dt}, duration = {duration}"
             )));
         }
-        self.with_world(py, |w| Ok(w.advance(duration, dt)?.events.len()))
+        self.with_world(py, |w| Ok(each!(w, w => w.advance(duration, dt)?.events.len())))
     }
 
     /// Breaks spring `index` now (a cut), whatever its strain; returns the events (empty if it could not break).
@@ -237,7 +278,7 @@ impl World {
         let m = self.model.borrow(py);
         let s = self.state.borrow(py);
         m.check(&s)?;
-        fissure::vtk::write_vtk(&path, &m.inner, &s.inner)
+        pair!(&m.inner, &s.inner, (m, s) => fissure::vtk::write_vtk(&path, m, s))?
             .map_err(|e| pyo3::exceptions::PyOSError::new_err(format!("{}: {e}", path.display())))
     }
 
@@ -249,8 +290,8 @@ impl World {
 
     /// Seconds spent per stage (solver stages and `fracture`), with `total` and `steps`.
     fn timers<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
-        let mut t = fissure::Solver::timers(&self.solver.borrow(py).inner).clone();
-        t.merge_stages(self.world.fracture.timers());
+        let mut t = each!(&self.solver.borrow(py).inner, s => fissure::Solver::timers(s).clone());
+        t.merge_stages(each!(&self.world, w => w.fracture.timers()));
         timers_dict(py, &t)
     }
 }
