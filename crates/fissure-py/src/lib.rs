@@ -4,7 +4,8 @@
 //! arrays out. Errors become `ValueError` (bad values, bad meshes, blown-up states) or `TypeError` (wrong types
 //! or dtypes); nothing panics across the boundary. Stepping releases the GIL.
 //!
-//! Arrays: positions and velocities are float32 `(N, 3)`; meshes are float64 `(V, 3)` with integer `(F, 3)`
+//! Arrays: positions and velocities are float32 `(N, 3)` (float64 for a model finalized with
+//! `precision="float64"`, the reference path: see the `precision` module); meshes are float64 `(V, 3)` with integer `(F, 3)`
 //! triangles. Any `(V, 3)` / `(F, 3)` array-like is accepted (lists, float32/float64, any integer dtype, any
 //! memory layout), so meshes from trimesh or meshio go straight in. Inputs are read in place (no copy when they
 //! are C-contiguous of the expected dtype) and copied once into the engine's own layout; outputs are new arrays
