@@ -203,11 +203,11 @@ mod tests {
         let m: Model<f32> = b.finalize().unwrap();
         let s = vtp_string(&m, &m.state());
         assert!(s.contains("NumberOfPoints=\"42\"") && s.contains("NumberOfPolys=\"80\""));
-        // Points, velocity, strain, body (points) + body, damage (cells) + connectivity, offsets.
-        assert_eq!(s.matches("<DataArray").count(), 7);
+        // Points; velocity, strain, body (points); body, damage (cells); connectivity, offsets.
+        assert_eq!(s.matches("<DataArray").count(), 8);
         assert!(s.contains("<DataArray type=\"Float32\" Name=\"Points\""));
         assert!(s.trim_end().ends_with("</VTKFile>"));
         let u = vtk_string(&m, &m.state(), VtkKind::UnstructuredGrid);
-        assert!(u.contains("NumberOfCells=\"80\"") && u.matches("<DataArray").count() == 8);
+        assert!(u.contains("NumberOfCells=\"80\"") && u.matches("<DataArray").count() == 9);
     }
 }
