@@ -110,12 +110,22 @@ struct LineOut {
 
 @vertex
 fn line_vs(@location(0) q: vec4<f32>) -> LineOut {
+    return line_out(q, vec3<f32>(0.10, 0.12, 0.16));
+}
+
+fn line_out(q: vec4<f32>, srgb: vec3<f32>) -> LineOut {
     var o: LineOut;
     let c = cam.view_proj * vec4<f32>(q.xyz, 1.0);
     // A small pull towards the camera keeps the lines in front of the faces they lie on.
     o.clip = vec4<f32>(c.xy, c.z - 2e-4 * c.w, c.w);
-    o.color = vec4<f32>(to_linear(vec3<f32>(0.10, 0.12, 0.16)), 1.0);
+    o.color = vec4<f32>(to_linear(srgb), 1.0);
     return o;
+}
+
+// Crack edges: the same lines in a bright amber, so slits and the rims of holes stand out on any body colour.
+@vertex
+fn crack_vs(@location(0) q: vec4<f32>) -> LineOut {
+    return line_out(q, vec3<f32>(1.0, 0.78, 0.12));
 }
 
 @fragment

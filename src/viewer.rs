@@ -4,12 +4,13 @@
 //!
 //! | input | action |
 //! |---|---|
-//! | left drag on a body | pull the mass point under the cursor (a critically damped spring, ω = 40 rad/s) |
+//! | left drag on a body | move the mass point under the cursor with it (held as a moving pin, at most 2 m/s): pulled past its strength, a cloth tears |
 //! | left drag elsewhere | orbit the camera; wheel: zoom |
 //! | right click on a body | puncture it there: the vertex under the cursor breaks out as a core block |
 //! | `space` / `n` | pause and resume / advance one frame while paused |
 //! | `w` / `p` | wind on and off / gas pressure on and off |
 //! | `f` / `v` / `s` | wireframe of springs / mass points / shaded surfaces |
+//! | `c` / `k` | colour by strain (blue at rest to red at the tear limit) or by body / crack edges on and off |
 //! | `r` / `esc`, `q` | restart the scene / quit |
 //!
 //! The overlay shows simulated time, the cost of the last frame per stage (springs, pressure, wind, collisions,
@@ -22,7 +23,7 @@
 use crate::gpu::render::{Camera, Offscreen, Positions, Readback, Renderer, View, targets};
 use crate::gpu::{GpuError, wgpu};
 use crate::output::{OutputError, save_png};
-use crate::{FractureKind, Stage, StepError, TopologyDelta, World};
+use crate::{FractureKind, Handle, Stage, StepError, TopologyDelta, World};
 use glam::Vec3;
 use std::path::PathBuf;
 use std::sync::Arc;
@@ -61,15 +62,21 @@ pub enum Action {
     Puncture(f32, f32),
     /// A right click on the centre of body `b` as seen from the camera.
     PunctureBody(usize),
+    /// A left press on the centre of body `b`, then the cursor moved by `(dx, dy)` pixels and held there: the
+    /// grabbed mass point is pulled towards it (past a cloth's strength, it tears).
+    DragBody(usize, f32, f32),
+    /// The left button released (ends a drag).
+    Release,
 }
 
 impl std::str::FromStr for Action {
     type Err = String;
 
-    /// `key:f`, `puncture:480,270` or `puncture-body:0`.
+    /// `key:f`, `puncture:480,270`, `puncture-body:0`, `drag-body:0,0,300` or `release:`.
     fn from_str(s: &str) -> Result<Action, String> {
-        let (kind, arg) =
-            s.split_once(':').ok_or_else(|| format!("{s:?}: want key:K, puncture:X,Y or puncture-body:B"))?;
+        let (kind, arg) = s.split_once(':').ok_or_else(|| {
+            format!("{s:?}: want key:K, puncture:X,Y, puncture-body:B, drag-body:B,DX,DY or release:")
+        })?;
         match kind {
             "key" => Ok(Action::Key(arg.to_string())),
             "puncture" => {
@@ -78,6 +85,14 @@ impl std::str::FromStr for Action {
                 Ok(Action::Puncture(p(x)?, p(y)?))
             }
             "puncture-body" => arg.parse().map(Action::PunctureBody).map_err(|_| format!("{s:?}: not a body index")),
+            "drag-body" => {
+                let v: Vec<&str> = arg.split(',').map(str::trim).collect();
+                let bad = || format!("{s:?}: want drag-body:B,DX,DY");
+                let [b, dx, dy] = v[..] else { return Err(bad()) };
+                let p = |v: &str| v.parse::<f32>().map_err(|_| bad());
+                Ok(Action::DragBody(b.parse().map_err(|_| bad())?, p(dx)?, p(dy)?))
+            }
+            "release" => Ok(Action::Release),
             other => Err(format!("{s:?}: unknown action {other:?}")),
         }
     }
@@ -210,6 +225,8 @@ struct Drag {
     particle: usize,
     plane_point: Vec3,
     target: Vec3,
+    /// The moving pin ([`Handle`]) that holds the grabbed particle (and any copies fracture splits off it).
+    handle: usize,
 }
 
 struct App {
@@ -237,9 +254,8 @@ struct App {
     screenshot: Option<(PathBuf, bool)>,
 }
 
-/// Stiffness of the mouse spring as an angular frequency \[rad/s\]; it acts on acceleration, so it pulls a light
-/// and a heavy particle alike, and is critically damped.
-const DRAG_OMEGA: f32 = 40.0;
+/// The fastest a grabbed mass point follows the cursor \[m/s\].
+const DRAG_SPEED: f32 = 2.0;
 
 impl App {
     fn fail(&mut self, event_loop: &ActiveEventLoop, e: ViewerError) {
@@ -357,6 +373,58 @@ impl App {
         o + d * ((plane_point - o).dot(n) / denom)
     }
 
+    /// Grabs particle `i` (not one already pinned or on a handle): it becomes a moving pin, a [`Handle`] of its
+    /// own, that [`App::simulate`] moves towards `target`; fracture's copies of it follow the same handle.
+    fn grab(&mut self, i: usize, target: Vec3) {
+        let m = &mut self.world.model;
+        if m.particle_inv_mass[i] == 0.0 || m.particle_handle[i] != u32::MAX {
+            return;
+        }
+        let h = m.handles.len();
+        m.handles.push(Handle { keys: vec![(self.world.state.time, glam::DVec3::ZERO)] });
+        m.particle_handle[i] = h as u32;
+        m.particle_inv_mass[i] = 0.0;
+        self.world.solver.notify_model_changed(&self.world.model, &TopologyDelta::whole());
+        let p = self.world.state.particle_q[i];
+        self.drag = Some(Drag { particle: i, plane_point: p, target, handle: h });
+    }
+
+    /// Lets go: the grabbed particle and its copies are free again, moving as the pin last moved them.
+    fn release(&mut self) {
+        let Some(d) = self.drag.take() else { return };
+        let m = &mut self.world.model;
+        if d.handle >= m.handles.len() {
+            return;
+        }
+        for i in 0..m.particle_count() {
+            if m.particle_handle[i] == d.handle as u32 {
+                m.particle_handle[i] = u32::MAX;
+                let mass = m.particle_mass[i];
+                m.particle_inv_mass[i] = if mass > 0.0 { 1.0 / mass } else { 0.0 };
+            }
+        }
+        // The drag's handle is the last one: nothing else adds handles while it is held.
+        m.handles.truncate(d.handle);
+        self.world.solver.notify_model_changed(&self.world.model, &TopologyDelta::whole());
+    }
+
+    /// Where the centre of body `b` is on screen \[px\].
+    fn body_center_px(&self, b: usize) -> Option<(f32, f32)> {
+        let w = &self.world;
+        let (mut sum, mut n) = (Vec3::ZERO, 0.0f32);
+        for (q, body) in w.state.particle_q.iter().zip(&w.model.particle_body) {
+            if *body as usize == b {
+                sum += *q;
+                n += 1.0;
+            }
+        }
+        let (width, height) = self.size();
+        if n == 0.0 {
+            return None;
+        }
+        self.camera.project(sum / n, width, height).map(|(x, y, _)| (x, y))
+    }
+
     fn puncture(&mut self, x: f32, y: f32) {
         let Some(v) = self.pick(x, y) else { return };
         if self.world.break_core(v).is_ok_and(|events| !events.is_empty()) {
@@ -403,22 +471,26 @@ impl App {
         }
     }
 
-    /// One frame of simulation through [`World::advance`], the mouse spring applied to the dragged particle's
-    /// velocity first: a critically damped spring `a = ω² (target - x) - 2ω v` integrated over the whole frame by
-    /// backward Euler, `v' = (v + h ω² (target - x)) / (1 + 2hω + h²ω²)`, which is stable at any frame time (the
-    /// explicit form per substep was, too, but needed a loop of its own around the world's steps).
+    /// One frame of simulation through [`World::advance`], the grabbed particle's pin first set to move towards
+    /// the cursor over the frame (the solver moves pinned particles exactly as their handle says, at every step).
     fn simulate(&mut self) -> Result<(), StepError> {
         let t0 = Instant::now();
         self.world.reset_timers();
-        let h = self.options.frame_time as f32;
+        // The grabbed particle's pin moves towards the cursor over this frame, at most DRAG_SPEED.
         if let Some(d) = &self.drag
-            && d.particle < self.world.state.particle_q.len()
-            && self.world.model.particle_inv_mass[d.particle] > 0.0
+            && d.handle < self.world.model.handles.len()
         {
-            let (q, v) = (self.world.state.particle_q[d.particle], self.world.state.particle_qd[d.particle]);
-            let (w, w2) = (DRAG_OMEGA * h, DRAG_OMEGA * DRAG_OMEGA * h);
-            self.world.state.particle_qd[d.particle] = (v + (d.target - q) * w2) / (1.0 + 2.0 * w + w * w);
-            self.world.solver.upload_state(&self.world.state)?;
+            let frame = self.options.frame_time;
+            let q = self.world.state.particle_q[d.particle];
+            let max = DRAG_SPEED * frame as f32;
+            let mut step = d.target - q;
+            if step.length() > max {
+                step = step.normalize() * max;
+            }
+            let t = self.world.state.time;
+            let h = &mut self.world.model.handles[d.handle];
+            let off = h.offset(t);
+            h.keys = vec![(t, off), (t + frame, off + step.as_dvec3())];
         }
         if self.world.advance(self.options.frame_time, self.dt)?.topology_changed {
             self.model_changed();
@@ -460,10 +532,12 @@ impl App {
                 w.model.particle_count()
             ),
             format!(
-                "[space] pause [n] step [w] wind {} [p] pressure {} [f] wireframe {} [v] points [r] restart",
+                "[space] pause [n] step [w] wind {} [p] pressure {} [f] wireframe {} [v] points [c] strain {} [k] cracks {} [r] restart",
                 on(w.model.wind.is_some()),
                 on(self.saved_gas.is_none() && w.model.has_pressure()),
-                on(self.view.wireframe)
+                on(self.view.wireframe),
+                on(self.view.strain),
+                on(self.view.cracks)
             ),
             "mouse: left drag a body / orbit, wheel zoom, right click puncture".into(),
         ]
@@ -478,21 +552,21 @@ impl App {
                 Action::Key(k) => self.key(event_loop, &Key::Character(k.as_str().into())),
                 Action::Puncture(x, y) => self.puncture(x, y),
                 Action::PunctureBody(b) => {
-                    let w = &self.world;
-                    let (mut sum, mut n) = (Vec3::ZERO, 0.0f32);
-                    for (q, body) in w.state.particle_q.iter().zip(&w.model.particle_body) {
-                        if *body as usize == b {
-                            sum += *q;
-                            n += 1.0;
-                        }
-                    }
-                    let (width, height) = self.size();
-                    if n > 0.0
-                        && let Some((x, y, _)) = self.camera.project(sum / n, width, height)
-                    {
+                    if let Some((x, y)) = self.body_center_px(b) {
                         self.puncture(x, y);
                     }
                 }
+                Action::DragBody(b, dx, dy) => {
+                    if let Some((x, y)) = self.body_center_px(b)
+                        && let Some(i) = self.pick(x, y)
+                    {
+                        let p = self.world.state.particle_q[i];
+                        self.cursor = (x + dx, y + dy);
+                        let target = self.drag_target(p);
+                        self.grab(i, target);
+                    }
+                }
+                Action::Release => self.release(),
             }
         }
     }
@@ -511,6 +585,9 @@ impl App {
         let t0 = Instant::now();
         let last = self.options.exit_after.is_some_and(|n| self.frames + 1 >= n);
         let g = self.gfx.as_mut().expect("initialised");
+        if self.view.strain {
+            g.renderer.color_by_strain(&self.world.model, &self.world.state.particle_q);
+        }
         g.renderer.upload_positions(&self.world.state);
         g.renderer.set_overlay(&overlay, if g.config.width >= 1600 { 2 } else { 1 });
         let frame = match g.surface.get_current_texture() {
@@ -552,6 +629,9 @@ impl App {
                         // The surface cannot be copied from: draw the same frame offscreen.
                         let mut r = Renderer::new(&g.device, &g.queue, Offscreen::FORMAT);
                         r.set_model(&self.world.model, self.world.state.time);
+                        if self.view.strain {
+                            r.color_by_strain(&self.world.model, &self.world.state.particle_q);
+                        }
                         r.upload_positions(&self.world.state);
                         r.set_overlay(&overlay, 1);
                         let mut target = Offscreen::new(&g.device, size[0], size[1]);
@@ -587,6 +667,13 @@ impl App {
                 "w" => self.toggle_wind(),
                 "p" => self.toggle_pressure(),
                 "f" => self.view.wireframe = !self.view.wireframe,
+                "c" => {
+                    self.view.strain = !self.view.strain;
+                    if !self.view.strain {
+                        self.model_changed(); // the body colours back
+                    }
+                }
+                "k" => self.view.cracks = !self.view.cracks,
                 "v" => self.view.points = !self.view.points,
                 "s" => self.view.surfaces = !self.view.surfaces,
                 "r" => self.restart(),
@@ -637,13 +724,13 @@ impl ApplicationHandler for App {
                 (MouseButton::Left, ElementState::Pressed) => {
                     if let Some(i) = self.pick(self.cursor.0, self.cursor.1) {
                         let p = self.world.state.particle_q[i];
-                        self.drag = Some(Drag { particle: i, plane_point: p, target: p });
+                        self.grab(i, p);
                     } else {
                         self.orbit_from = Some(self.cursor);
                     }
                 }
                 (MouseButton::Left, ElementState::Released) => {
-                    self.drag = None;
+                    self.release();
                     self.orbit_from = None;
                 }
                 (MouseButton::Right, ElementState::Pressed) => self.puncture(self.cursor.0, self.cursor.1),

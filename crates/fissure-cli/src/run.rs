@@ -412,12 +412,15 @@ pub const VIEW_USAGE: &str = "\
 usage: fissure view SCENE [--set KEY=VALUE ...] [--size WxH] [--paused] [--frames N --screenshot FILE]
                           [--script ACTIONS]
 
-  Opens a window on the scene and runs it on the CPU. Mouse: left-drag a body to pull it, left-drag
-  elsewhere to orbit, wheel to zoom, right-click to puncture. Keys: space pause, n step, w wind,
-  p pressure, f wireframe, v mass points, s surfaces, r restart, q or esc quit.
+  Opens a window on the scene and runs it on the CPU. Mouse: left-drag a body to pull it (past a
+  cloth's strength it tears), left-drag elsewhere to orbit, wheel to zoom, right-click to puncture.
+  Keys: space pause, n step, w wind, p pressure, f wireframe, v mass points, s surfaces, c colour
+  by strain, k crack edges, r restart, q or esc quit.
 
   --frames N --screenshot FILE   close after N frames and save the last one (for tests)
-  --script ACTIONS               replay input, e.g. \"20:puncture-body:0;25:key:f;30:puncture:480,270\"";
+  --script ACTIONS               replay input, e.g. \"20:puncture-body:0;25:key:f;30:puncture:480,270\"
+                                 (also drag-body:B,DX,DY: grab body B's centre, pull it DX,DY pixels;
+                                 release:)";
 
 pub fn view(args: &[String]) -> Result<(), Box<dyn std::error::Error>> {
     let mut opts = fissure::viewer::ViewerOptions::default();

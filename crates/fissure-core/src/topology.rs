@@ -153,3 +153,54 @@ pub fn connected_components(vertex_count: usize, edges: impl Iterator<Item = [u3
     }
     (count, label)
 }
+
+/// The edges along cracks: boundary edges (one face) that have a twin, another boundary edge between copies of
+/// the same two original particles (`origin` followed to its root): the two lips of a slit, and the rim of a hole
+/// with the rim of the block that left it. A mesh's own border (a cloth's edge) has no twin and is not a crack.
+/// What the renderer draws as crack lines.
+pub fn crack_edges(triangles: &[[u32; 3]], origin: &[u32]) -> Vec<[u32; 2]> {
+    let root = |mut v: u32| {
+        // Copies of copies: follow the chain to the builder's particle (a few steps at most).
+        while let Some(&o) = origin.get(v as usize) {
+            if o == v {
+                break;
+            }
+            v = o;
+        }
+        v
+    };
+    let mut edges: Vec<[u32; 2]> =
+        triangles.iter().flat_map(|t| (0..3).map(move |k| sorted(t[k], t[(k + 1) % 3]))).collect();
+    edges.sort_unstable();
+    let mut boundary: Vec<([u32; 2], [u32; 2])> = Vec::new();
+    let mut i = 0;
+    while i < edges.len() {
+        let mut j = i + 1;
+        while j < edges.len() && edges[j] == edges[i] {
+            j += 1;
+        }
+        if j - i == 1 {
+            let [a, b] = edges[i];
+            boundary.push((sorted(root(a), root(b)), [a, b]));
+        }
+        i = j;
+    }
+    boundary.sort_unstable();
+    let mut out = Vec::new();
+    let mut i = 0;
+    while i < boundary.len() {
+        let mut j = i + 1;
+        while j < boundary.len() && boundary[j].0 == boundary[i].0 {
+            j += 1;
+        }
+        if j - i >= 2 {
+            out.extend(boundary[i..j].iter().map(|(_, e)| *e));
+        }
+        i = j;
+    }
+    out
+}
+
+fn sorted(a: u32, b: u32) -> [u32; 2] {
+    [a.min(b), a.max(b)]
+}

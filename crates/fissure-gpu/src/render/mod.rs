@@ -1,4 +1,5 @@
-//! The renderer: soft bodies lit and double-sided, a wireframe of their springs and mass points, the scene's
+//! The renderer: soft bodies lit and double-sided (coloured by body or by strain), a wireframe of their springs
+//! and mass points, crack edges in amber (the lips of slits, the rims of holes and blocks), the scene's
 //! ground, walls and obstacles, and a text overlay, drawn with wgpu into a window's surface or an offscreen
 //! texture (headless, read back as RGBA8 for PNG frames).
 //!
@@ -81,11 +82,22 @@ pub struct View {
     pub point_size: f32,
     /// Colour surfaces by strain instead of by body (see [`Renderer::color_by_strain`]; CPU states only).
     pub strain: bool,
+    /// Crack edges as bright lines: the lips of slits and the rims of holes and blocks
+    /// (`fissure_core::topology::crack_edges`).
+    pub cracks: bool,
 }
 
 impl Default for View {
     fn default() -> Self {
-        View { surfaces: true, wireframe: false, points: false, scene: true, point_size: 4.0, strain: false }
+        View {
+            surfaces: true,
+            wireframe: false,
+            points: false,
+            scene: true,
+            point_size: 4.0,
+            strain: false,
+            cracks: true,
+        }
     }
 }
 
@@ -109,17 +121,20 @@ pub struct Renderer {
     body: wgpu::RenderPipeline,
     statics: wgpu::RenderPipeline,
     lines: wgpu::RenderPipeline,
+    crack_lines: wgpu::RenderPipeline,
     points: wgpu::RenderPipeline,
     overlay_pipeline: wgpu::RenderPipeline,
     positions: Sized,
     colors: Sized,
     tris: Sized,
     springs: Sized,
+    cracks: Sized,
     static_vertices: Sized,
     static_indices: Sized,
     particles: u32,
     tri_indices: u32,
     spring_indices: u32,
+    crack_indices: u32,
     static_draws: Vec<StaticDraw>,
     moving_colliders: bool,
     overlay: Option<Overlay>,
@@ -322,6 +337,16 @@ impl Renderer {
             depth(false),
             None,
         );
+        let crack_lines = make(
+            "cracks",
+            &layout,
+            "crack_vs",
+            "line_fs",
+            &[Some(per(vertex, 16, &q_attr))],
+            T::LineList,
+            depth(false),
+            None,
+        );
         let points = make(
             "points",
             &layout,
@@ -349,6 +374,7 @@ impl Renderer {
             colors: Sized::new(device, "render colours", v),
             tris: Sized::new(device, "render triangles", ix),
             springs: Sized::new(device, "render springs", ix),
+            cracks: Sized::new(device, "render cracks", ix),
             static_vertices: Sized::new(device, "scene vertices", v),
             static_indices: Sized::new(device, "scene indices", ix),
             device: device.clone(),
@@ -360,11 +386,13 @@ impl Renderer {
             body,
             statics,
             lines,
+            crack_lines,
             points,
             overlay_pipeline,
             particles: 0,
             tri_indices: 0,
             spring_indices: 0,
+            crack_indices: 0,
             static_draws: Vec::new(),
             moving_colliders: false,
             overlay: None,
@@ -413,6 +441,9 @@ impl Renderer {
         self.particles = m.particle_count() as u32;
         self.tri_indices = 3 * m.tri_indices.len() as u32;
         self.spring_indices = 2 * lines.len() as u32;
+        let cracks = fissure_core::topology::crack_edges(&m.tri_indices, &m.particle_origin);
+        self.cracks.write(&self.device, &self.queue, bytemuck::cast_slice(&cracks));
+        self.crack_indices = 2 * cracks.len() as u32;
         self.set_colliders(m, time);
     }
 
@@ -614,6 +645,12 @@ impl Renderer {
                 pass.set_vertex_buffer(0, q.slice(..));
                 pass.set_index_buffer(self.springs.buffer.slice(..), wgpu::IndexFormat::Uint32);
                 pass.draw_indexed(0..self.spring_indices, 0, 0..1);
+            }
+            if view.cracks && self.crack_indices > 0 {
+                pass.set_pipeline(&self.crack_lines);
+                pass.set_vertex_buffer(0, q.slice(..));
+                pass.set_index_buffer(self.cracks.buffer.slice(..), wgpu::IndexFormat::Uint32);
+                pass.draw_indexed(0..self.crack_indices, 0, 0..1);
             }
             if view.points {
                 pass.set_pipeline(&self.points);
