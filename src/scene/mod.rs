@@ -80,7 +80,7 @@ mod outcome;
 mod overrides;
 
 pub use format::*;
-pub use outcome::{Job, Outcome, advance_all, run_all};
+pub use outcome::{Job, Outcome, advance_all, run_all, run_all_reporting};
 pub use overrides::{Override, parse_value};
 
 /// Core parameter names that differ from a body's scene keys.

@@ -126,8 +126,21 @@ impl Job {
 /// Runs every job in parallel, at most `threads` at a time (`None`: one per core), and returns the outcomes in
 /// the jobs' order. Each job runs on one thread, so its outcome does not depend on `threads`.
 pub fn run_all<R: Real>(jobs: &[Job], threads: Option<usize>) -> Vec<Outcome> {
-    let mut jobs: Vec<&Job> = jobs.iter().collect();
-    parallel(&mut jobs, threads, |job| job.run::<R>())
+    run_all_reporting::<R>(jobs, threads, &|_, _| {})
+}
+
+/// [`run_all`], calling `done(k, outcome)` from the worker thread as each job `k` finishes (for progress output).
+pub fn run_all_reporting<R: Real>(
+    jobs: &[Job],
+    threads: Option<usize>,
+    done: &(dyn Fn(usize, &Outcome) + Sync),
+) -> Vec<Outcome> {
+    let mut jobs: Vec<(usize, &Job)> = jobs.iter().enumerate().collect();
+    parallel(&mut jobs, threads, |(k, job)| {
+        let o = job.run::<R>();
+        done(*k, &o);
+        o
+    })
 }
 
 /// Advances every world by `duration` \[s\] in steps of `dt` \[s\] in parallel, at most `threads` at a time, and

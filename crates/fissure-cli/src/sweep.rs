@@ -2,7 +2,7 @@
 //! per thread: `fissure::scene::run_all`), one CSV row of outcomes per run and a PNG plot.
 
 use crate::plot::{PALETTE, Plot, Series};
-use fissure::scene::{Job, Outcome, Override, Scene, run_all};
+use fissure::scene::{Job, Outcome, Override, Scene, run_all_reporting};
 use std::fmt::Write as _;
 use std::path::PathBuf;
 use std::time::Instant;
@@ -148,7 +148,18 @@ pub fn run(cfg: &SweepConfig) -> Result<bool, Box<dyn std::error::Error>> {
         keys.join(" x ")
     );
     let wall = Instant::now();
-    let outcomes = run_all::<f32>(&jobs, Some(threads));
+    // One line per finished run on stderr (the table follows on stdout).
+    let finished = std::sync::atomic::AtomicUsize::new(0);
+    let report = |k: usize, o: &Outcome| {
+        let n = finished.fetch_add(1, std::sync::atomic::Ordering::Relaxed) + 1;
+        let values: Vec<String> = combos[k].iter().map(|v| v.to_string()).collect();
+        let result = match &o.error {
+            Some(e) => format!("error: {e}"),
+            None => format!("{} events, {:.2} s", o.events(), o.wall),
+        };
+        eprintln!("[{n}/{}] run {k} ({}): {result}", combos.len(), values.join(", "));
+    };
+    let outcomes = run_all_reporting::<f32>(&jobs, Some(threads), &report);
     let wall = wall.elapsed().as_secs_f64();
     let runs: Vec<(Vec<Override>, Outcome)> = combos.into_iter().zip(outcomes).collect();
 

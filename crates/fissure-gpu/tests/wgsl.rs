@@ -22,12 +22,13 @@ fn every_shader_file_validates() {
 }
 
 /// The renderer's shader stands alone (no common.wgsl): vertex and fragment stages for bodies, scene geometry,
-/// springs, mass points and the overlay.
+/// springs, crack edges, mass points and the overlay.
 #[test]
 fn the_render_shader_validates() {
     let m = validate("render.wgsl", fissure_gpu::render::RENDER_WGSL);
     for stage in [naga::ShaderStage::Vertex, naga::ShaderStage::Fragment] {
-        let want = if stage == naga::ShaderStage::Vertex { 5 } else { 4 }; // points share the lines' fragment stage
+        // Points and crack edges share the lines' fragment stage.
+        let want = if stage == naga::ShaderStage::Vertex { 6 } else { 4 };
         assert_eq!(m.entry_points.iter().filter(|e| e.stage == stage).count(), want, "{stage:?}");
     }
 }
