@@ -29,12 +29,15 @@ struct Clock {
     dt: f32,
     _pad0: f32,
     _pad1: f32,
+    // Each moving pin's displacement over this step [m] (`Clock::handles` in layout.rs).
+    handles: array<vec4<f32>, 15>,
 }
 
 struct Particle {
     mass: f32,
     inv_mass: f32,
-    body: u32,
+    // The moving pin holding the particle, plus one (0: none).
+    handle: u32,
     // Core-mode load limit [N]; negative: unbreakable.
     load_limit: f32,
 }

@@ -74,7 +74,8 @@ fn flag_blown(x: vec3<f32>, v: vec3<f32>) {
     }
 }
 
-// The first (or only) half of a step, from the source state into the destination; pinned particles are copied.
+// The first (or only) half of a step, from the source state into the destination; pinned particles are copied,
+// or moved by their handle.
 // Drift with the velocity kicked by `h` (`x += dt (v + h a)`), store the velocity kicked by the whole step
 // (`v + dt a`). Symplectic Euler is `h = dt` (the two agree: the seed's eqs. 3-5). Velocity Verlet is `h = dt/2`:
 // the stored velocity is then not the half-step one but its extrapolation to the step's end, where the second kick
@@ -84,6 +85,14 @@ fn flag_blown(x: vec3<f32>, v: vec3<f32>) {
 fn kick_drift(i: u32, h: f32) {
     let w = particles[i].inv_mass;
     if (w == 0.0) {
+        let pin = particles[i].handle;
+        if (pin != 0u) {
+            // A moving pin: moved by its handle's displacement over the step, at that velocity.
+            let d = clock.handles[pin - 1u].xyz;
+            q_dst[i] = vec4<f32>(q_src[i].xyz + d, 0.0);
+            qd_dst[i] = vec4<f32>(d / clock.dt, 0.0);
+            return;
+        }
         q_dst[i] = q_src[i];
         qd_dst[i] = qd_src[i];
         return;

@@ -15,7 +15,7 @@
 use fissure::glam::{DVec3, Vec3};
 use fissure::scenes::{self, BallDrop};
 use fissure::*;
-use fissure_gpu::{GpuConfig, GpuContext, GpuError, GpuSolver, adapter_required};
+use fissure_gpu::{GpuConfig, GpuContext, GpuError, GpuSolver, MAX_GPU_HANDLES, adapter_required};
 
 fn gpu() -> Option<GpuContext> {
     match GpuContext::new() {
@@ -154,6 +154,62 @@ fn cloth_in_wind_trajectory_matches_the_cpu() {
     for integrator in [Integrator::SymplecticEuler, Integrator::VelocityVerlet] {
         assert_trajectories_match("cloth in wind", &ctx, &m, integrator, 5e-4, 600, 1.0);
     }
+}
+
+/// Moving pins on the GPU: a sheet pulled apart by two handles (one on a path with a corner) follows the CPU
+/// solver's trajectory, and the pinned particles sit exactly where their handles put them.
+#[test]
+fn moving_pins_match_the_cpu() {
+    let Some(ctx) = gpu() else { return };
+    let n = 12;
+    let mut b = ModelBuilder::new();
+    b.gravity(DVec3::new(0.0, -9.81, 0.0)).unwrap();
+    let opts = ClothOptions { pins: Vec::new(), ..Default::default() };
+    let body = b.add_cloth_grid(n, n, 0.05, |p| DVec3::new(p.x, 1.0 - p.y, 0.0), &opts).unwrap();
+    let left: Vec<usize> = (0..n).map(|j| body.first_particle + j * n).collect();
+    let right: Vec<usize> = left.iter().map(|i| i + n - 1).collect();
+    b.add_handle(&left, Handle::linear(DVec3::new(-0.1, 0.0, 0.0), 0.05, 0.4)).unwrap();
+    let path = Handle {
+        keys: vec![(0.0, DVec3::ZERO), (0.2, DVec3::new(0.05, 0.05, 0.0)), (0.4, DVec3::new(0.1, 0.0, 0.05))],
+    };
+    b.add_handle(&right, path.clone()).unwrap();
+    let m: Model<f32> = b.finalize().unwrap();
+    for integrator in [Integrator::SymplecticEuler, Integrator::VelocityVerlet] {
+        assert_trajectories_match("pulled sheet", &ctx, &m, integrator, 2e-4, 1500, 0.6);
+    }
+    let mut g = solver(&ctx, &m, Integrator::SymplecticEuler);
+    g.run(&m, 2e-4, 1500).unwrap();
+    let mut s = m.state();
+    g.read_state(&mut s).unwrap();
+    let want = path.offset(0.3).as_vec3();
+    for &i in &right {
+        let moved = s.particle_q[i] - m.particle_q0[i];
+        assert!((moved - want).length() < 1e-4, "pin {i} moved {moved:?}, its path says {want:?}");
+    }
+}
+
+/// `scenes/cloth_tear.toml` on the GPU path (kernels step, the CPU fracture pass splits, new particles on a
+/// handle follow it): the cloth tears in two along the pull, as on the CPU.
+#[test]
+fn cloth_tear_tears_on_the_gpu_path() {
+    let Some(ctx) = gpu() else { return };
+    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/cloth_tear.toml");
+    let scene = fissure::scene::Scene::load(&path).unwrap();
+    let mut w: World<f32> = scene.world().unwrap();
+    let config = GpuConfig { integrator: scene.integrator().unwrap(), ..Default::default() };
+    w.solver = Box::new(GpuSolver::new(ctx.device.clone(), ctx.queue.clone(), &w.model, config).unwrap());
+    w.advance(1.0, scene.solver.dt).unwrap();
+    let springs = w.events.iter().filter(|e| e.kind == FractureKind::Spring).count();
+    let (pieces, label) = w.model.components();
+    eprintln!("cloth_tear on the GPU: {springs} spring splits, {} bodies, {pieces} pieces", w.model.body_count());
+    assert!(springs >= 20 && w.model.body_count() >= 2, "{springs} splits, {} bodies", w.model.body_count());
+    // The two largest pieces hold one side handle each: the tear ran between them.
+    let (l, r) = (
+        w.model.particle_handle.iter().position(|&h| h == 0).unwrap(),
+        w.model.particle_handle.iter().position(|&h| h == 1).unwrap(),
+    );
+    assert_ne!(label[l], label[r], "the handles still hold one piece");
+    check_invariants(&w.model).unwrap();
 }
 
 #[test]
@@ -470,10 +526,12 @@ fn bad_input_gets_clear_errors() {
     let e = GpuSolver::new(ctx.device.clone(), ctx.queue.clone(), &with_contact, GpuConfig::default());
     assert!(matches!(e, Err(GpuError::UnsupportedContact)), "contact must be refused, not ignored");
     let mut b = scenes::benchmark_cloth(8).unwrap();
-    b.add_handle(&[0, 7], Handle::linear(DVec3::X, 0.0, 1.0)).unwrap();
+    for k in 0..=MAX_GPU_HANDLES {
+        b.add_handle(&[k], Handle::linear(DVec3::X, 0.0, 1.0)).unwrap();
+    }
     let with_handles: Model<f32> = b.finalize().unwrap();
     let e = GpuSolver::new(ctx.device.clone(), ctx.queue.clone(), &with_handles, GpuConfig::default());
-    assert!(matches!(e, Err(GpuError::UnsupportedHandles)), "moving pins must be refused, not ignored");
+    assert!(matches!(e, Err(GpuError::UnsupportedHandles)), "more pins than the clock holds must be refused");
     let mut g = solver(&ctx, &m, Integrator::SymplecticEuler);
     assert!(matches!(g.run(&m, -1.0, 1), Err(GpuError::BadTimeStep(_))));
     let other: Model<f32> = scenes::benchmark_cloth(9).unwrap().finalize().unwrap();

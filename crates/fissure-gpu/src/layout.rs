@@ -40,7 +40,15 @@ pub struct Clock {
     pub dt: f32,
     /// Padding.
     pub pad: [f32; 2],
+    /// Each moving pin's displacement over the step that starts at `time` \[m\] (xyz; w unused): the
+    /// integrators move a pinned particle on handle `h` by entry `h` and give it that displacement over `dt` as
+    /// its velocity, as the CPU solver's `move_handles` does. Filled in the entries the integrators read.
+    pub handles: [[f32; 4]; MAX_GPU_HANDLES],
 }
+
+/// The most moving pins ([`fissure_core::Handle`]) a model may have on the GPU: as many as fill a clock entry's 256
+/// bytes.
+pub const MAX_GPU_HANDLES: usize = 15;
 
 /// Stride of the clock entries [bytes] (the largest `min_uniform_buffer_offset_alignment` allowed).
 pub const CLOCK_STRIDE: u64 = 256;
@@ -53,8 +61,8 @@ pub struct GpuParticle {
     pub mass: f32,
     /// Inverse mass [1/kg], 0 pinned.
     pub inv_mass: f32,
-    /// Body, or `NONE` (`u32::MAX`).
-    pub body: u32,
+    /// The moving pin holding the particle, plus one (0: none); see [`Clock::handles`].
+    pub handle: u32,
     /// Load limit \[N\], negative for none.
     pub load_limit: f32,
 }
@@ -162,7 +170,7 @@ pub(crate) fn pack_particle(m: &Model<f32>, i: usize) -> GpuParticle {
     GpuParticle {
         mass: m.particle_mass[i],
         inv_mass: m.particle_inv_mass[i],
-        body: m.particle_body[i],
+        handle: if m.particle_handle[i] == u32::MAX { 0 } else { m.particle_handle[i] + 1 },
         load_limit: if lim.is_finite() { lim } else { -1.0 },
     }
 }

@@ -36,7 +36,7 @@ pub mod sdf;
 mod solver;
 
 pub use context::{GpuContext, adapter_required};
-pub use layout::{GpuBody, GpuCollider, GpuParticle, GpuSpring, Params};
+pub use layout::{GpuBody, GpuCollider, GpuParticle, GpuSpring, MAX_GPU_HANDLES, Params};
 pub use sdf::SdfGrid;
 pub use solver::{Candidates, GpuConfig, GpuSolver, RunReport};
 pub use wgpu;
@@ -110,9 +110,9 @@ pub enum GpuError {
         "contact between surfaces (ModelBuilder::set_contact, the scene keys `contact`/`self_collision`) runs on the CPU solver only for now (fissure_core::CpuSolver, `--backend cpu`)"
     )]
     UnsupportedContact,
-    /// The model has moving pins, which have no GPU kernel yet.
+    /// The model has more moving pins than a clock entry holds ([`MAX_GPU_HANDLES`]).
     #[error(
-        "moving pins (ModelBuilder::add_handle, the scene's `[[body.handle]]`) run on the CPU solver only for now (fissure_core::CpuSolver, `--backend cpu`)"
+        "more than 15 moving pins (ModelBuilder::add_handle, the scene's `[[body.handle]]`): the GPU clock holds 15; use the CPU solver (`--backend cpu`)"
     )]
     UnsupportedHandles,
     /// A collider could not be prepared.

@@ -21,7 +21,7 @@ use std::time::Instant;
 use fissure_core::{Integrator, Model, StageTimers, State};
 use glam::Vec3;
 
-use crate::layout::{self, CLOCK_STRIDE, Clock, GpuCollider, Mirror, Packed, Params};
+use crate::layout::{self, CLOCK_STRIDE, Clock, GpuCollider, MAX_GPU_HANDLES, Mirror, Packed, Params};
 use crate::{GpuError, SHADERS, shader_source};
 
 mod bind;
@@ -217,7 +217,7 @@ impl GpuSolver {
         if model.has_contact() {
             return Err(GpuError::UnsupportedContact);
         }
-        if model.has_handles() {
+        if model.handles.len() > MAX_GPU_HANDLES {
             return Err(GpuError::UnsupportedHandles);
         }
         let limits = device.limits();
@@ -437,12 +437,21 @@ impl GpuSolver {
         }
     }
 
-    fn write_clock(&mut self, t0: f64, dt: f64, steps: usize) {
+    /// The clock of `steps` steps of `dt` from `t0`: two entries a step (its start, which the integrators read
+    /// with the handles' displacements over the step, and its end).
+    fn write_clock(&mut self, m: &Model<f32>, t0: f64, dt: f64, steps: usize) {
         self.ensure_clock(2 * steps);
         let mut bytes = vec![0u8; 2 * steps * CLOCK_STRIDE as usize];
         for k in 0..2 * steps {
-            let t = t0 + (k / 2) as f64 * dt + if k % 2 == 1 { dt } else { 0.0 };
-            let c = Clock { time: t as f32, dt: dt as f32, pad: [0.0; 2] };
+            let start = t0 + (k / 2) as f64 * dt;
+            let t = start + if k % 2 == 1 { dt } else { 0.0 };
+            let mut c = Clock { time: t as f32, dt: dt as f32, ..Default::default() };
+            if k % 2 == 0 {
+                for (h, slot) in m.handles.iter().zip(&mut c.handles) {
+                    let d = (h.offset(start + dt) - h.offset(start)).as_vec3();
+                    *slot = [d.x, d.y, d.z, 0.0];
+                }
+            }
             let at = k * CLOCK_STRIDE as usize;
             bytes[at..at + size_of::<Clock>()].copy_from_slice(bytemuck::bytes_of(&c));
         }
@@ -552,7 +561,7 @@ impl GpuSolver {
         self.check_model(m)?;
         let t0 = Instant::now();
         let start = self.time;
-        self.write_clock(start, dt, steps);
+        self.write_clock(m, start, dt, steps);
         self.passes.clear();
         let mut enc = self.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("run") });
         enc.clear_buffer(&self.candidates, 0, Some(16));
@@ -610,7 +619,7 @@ impl GpuSolver {
     pub fn compute_forces(&mut self, m: &Model<f32>, state: &State<f32>) -> Result<Vec<Vec3>, GpuError> {
         self.check_model(m)?;
         self.upload_state(state)?;
-        self.write_clock(state.time, 1.0, 1);
+        self.write_clock(m, state.time, 1.0, 1);
         self.passes.clear();
         let mut enc = self.device.create_command_encoder(&Default::default());
         {
