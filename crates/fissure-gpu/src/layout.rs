@@ -61,7 +61,7 @@ pub struct GpuParticle {
     pub mass: f32,
     /// Inverse mass [1/kg], 0 pinned.
     pub inv_mass: f32,
-    /// The moving pin holding the particle, plus one (0: none); see [`Clock::handles`].
+    /// The moving pin holding the particle, plus one (0: none): the kernels move it by the clock's `handles` entry.
     pub handle: u32,
     /// Load limit \[N\], negative for none.
     pub load_limit: f32,
