@@ -3,8 +3,12 @@
 //! Work is cut into fixed-size chunks, independent of the number of threads. Element-wise passes are trivially
 //! thread-count independent; reductions sum each fixed chunk, then the chunk sums in chunk order, so a sum has
 //! the same bits on 1 thread or 64. Small inputs run inline: forking costs microseconds.
+//!
+//! Without the `parallel` feature (on by default; off for targets without threads, such as `wasm32`) every pass
+//! runs inline, over the same chunks: the same bits.
 
 use crate::real::Real;
+#[cfg(feature = "parallel")]
 use rayon::prelude::*;
 
 /// Chunk length of every parallel pass.
@@ -16,29 +20,32 @@ pub(crate) const CHUNK: usize = 2048;
 /// 2-core VM, `benches/ball.rs` and `benches/cloth.rs`): at 4 chunks (8,192) a 2,562-vertex ball after 100 core
 /// splits (10,675 springs, its spring pass now parallel) took 296–300 µs per step, at 8 chunks 194–201 µs; the
 /// 128² cloth 249 µs at both; at 16 chunks the cloth's 16,384-particle passes ran inline: 394 µs.
+#[cfg_attr(not(feature = "parallel"), allow(dead_code))]
 pub(crate) const PAR_MIN: usize = 8 * CHUNK;
 
 /// Runs `f(start, chunk)` over `data` in fixed chunks, in parallel when there is more than one chunk.
 #[inline]
 pub(crate) fn chunks<T: Send>(data: &mut [T], f: impl Fn(usize, &mut [T]) + Sync + Send) {
-    if data.len() < PAR_MIN {
-        // The same fixed chunks as the parallel path: kernels whose order depends on the chunking (the spring-run
-        // kernel) give the same bits either way.
-        data.chunks_mut(CHUNK).enumerate().for_each(|(c, s)| f(c * CHUNK, s));
-    } else {
+    #[cfg(feature = "parallel")]
+    if data.len() >= PAR_MIN {
         data.par_chunks_mut(CHUNK).enumerate().for_each(|(c, s)| f(c * CHUNK, s));
+        return;
     }
+    // The same fixed chunks as the parallel path: kernels whose order depends on the chunking (the spring-run
+    // kernel) give the same bits either way.
+    data.chunks_mut(CHUNK).enumerate().for_each(|(c, s)| f(c * CHUNK, s));
 }
 
 /// Like [`chunks`] over two slices of equal length walked together.
 #[inline]
 pub(crate) fn chunks2<A: Send, B: Send>(a: &mut [A], b: &mut [B], f: impl Fn(usize, &mut [A], &mut [B]) + Sync + Send) {
     debug_assert_eq!(a.len(), b.len());
-    if a.len() < PAR_MIN {
-        a.chunks_mut(CHUNK).zip(b.chunks_mut(CHUNK)).enumerate().for_each(|(i, (x, y))| f(i * CHUNK, x, y));
-    } else {
+    #[cfg(feature = "parallel")]
+    if a.len() >= PAR_MIN {
         a.par_chunks_mut(CHUNK).zip(b.par_chunks_mut(CHUNK)).enumerate().for_each(|(c, (x, y))| f(c * CHUNK, x, y));
+        return;
     }
+    a.chunks_mut(CHUNK).zip(b.chunks_mut(CHUNK)).enumerate().for_each(|(i, (x, y))| f(i * CHUNK, x, y));
 }
 
 /// `Σ f(i)` over `0..n`, deterministic: chunk sums in `partials` (resized, reused), then summed in order.
@@ -46,17 +53,18 @@ pub(crate) fn chunks2<A: Send, B: Send>(a: &mut [A], b: &mut [B], f: impl Fn(usi
 pub(crate) fn sum<R: Real>(n: usize, partials: &mut Vec<R>, f: impl Fn(usize) -> R + Sync + Send) -> R {
     let nc = n.div_ceil(CHUNK);
     partials.resize(nc, R::ZERO);
-    if n < PAR_MIN {
-        // Same chunked order as the parallel path, so the bits do not depend on the size threshold either.
-        for (c, p) in partials.iter_mut().enumerate() {
-            *p = (c * CHUNK..((c + 1) * CHUNK).min(n)).map(&f).fold(R::ZERO, |a, b| a + b);
-        }
+    #[cfg(feature = "parallel")]
+    if n >= PAR_MIN {
+        partials.par_iter_mut().enumerate().for_each(|(c, p)| {
+            let end = ((c + 1) * CHUNK).min(n);
+            *p = (c * CHUNK..end).map(&f).fold(R::ZERO, |a, b| a + b);
+        });
         return partials.iter().fold(R::ZERO, |a, &b| a + b);
     }
-    partials.par_iter_mut().enumerate().for_each(|(c, p)| {
-        let end = ((c + 1) * CHUNK).min(n);
-        *p = (c * CHUNK..end).map(&f).fold(R::ZERO, |a, b| a + b);
-    });
+    // Same chunked order as the parallel path, so the bits do not depend on the size threshold either.
+    for (c, p) in partials.iter_mut().enumerate() {
+        *p = (c * CHUNK..((c + 1) * CHUNK).min(n)).map(&f).fold(R::ZERO, |a, b| a + b);
+    }
     partials.iter().fold(R::ZERO, |a, &b| a + b)
 }
 
@@ -70,19 +78,20 @@ pub(crate) fn chunks4<A: Send, B: Send, C: Send, D: Send>(
     d: &mut [D],
     f: impl Fn(usize, &mut [A], &mut [B], &mut [C], &mut [D]) + Sync + Send,
 ) {
-    if a.len() < PAR_MIN {
-        a.chunks_mut(CHUNK)
-            .zip(b.chunks_mut(CHUNK))
-            .zip(c.chunks_mut(CHUNK).zip(d.chunks_mut(CHUNK)))
-            .enumerate()
-            .for_each(|(i, ((w, x), (y, z)))| f(i * CHUNK, w, x, y, z));
-    } else {
+    #[cfg(feature = "parallel")]
+    if a.len() >= PAR_MIN {
         a.par_chunks_mut(CHUNK)
             .zip(b.par_chunks_mut(CHUNK))
             .zip(c.par_chunks_mut(CHUNK).zip(d.par_chunks_mut(CHUNK)))
             .enumerate()
             .for_each(|(i, ((w, x), (y, z)))| f(i * CHUNK, w, x, y, z));
+        return;
     }
+    a.chunks_mut(CHUNK)
+        .zip(b.chunks_mut(CHUNK))
+        .zip(c.chunks_mut(CHUNK).zip(d.chunks_mut(CHUNK)))
+        .enumerate()
+        .for_each(|(i, ((w, x), (y, z)))| f(i * CHUNK, w, x, y, z));
 }
 
 /// Like [`chunks`] over three slices of equal length walked together.
@@ -93,17 +102,18 @@ pub(crate) fn chunks3<A: Send, B: Send, C: Send>(
     c: &mut [C],
     f: impl Fn(usize, &mut [A], &mut [B], &mut [C]) + Sync + Send,
 ) {
-    if a.len() < PAR_MIN {
-        a.chunks_mut(CHUNK)
-            .zip(b.chunks_mut(CHUNK))
-            .zip(c.chunks_mut(CHUNK))
-            .enumerate()
-            .for_each(|(i, ((x, y), z))| f(i * CHUNK, x, y, z));
-    } else {
+    #[cfg(feature = "parallel")]
+    if a.len() >= PAR_MIN {
         a.par_chunks_mut(CHUNK)
             .zip(b.par_chunks_mut(CHUNK))
             .zip(c.par_chunks_mut(CHUNK))
             .enumerate()
             .for_each(|(i, ((x, y), z))| f(i * CHUNK, x, y, z));
+        return;
     }
+    a.chunks_mut(CHUNK)
+        .zip(b.chunks_mut(CHUNK))
+        .zip(c.chunks_mut(CHUNK))
+        .enumerate()
+        .for_each(|(i, ((x, y), z))| f(i * CHUNK, x, y, z));
 }

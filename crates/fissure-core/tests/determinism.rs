@@ -1,10 +1,11 @@
-//! Same input, bit-identical output, whatever the thread count.
+//! Same input, bit-identical output, whatever the thread count, and with the `parallel` feature off (CI runs
+//! this file with `--no-default-features` too: `inline_and_parallel_passes_give_the_recorded_bits`).
 
 use fissure_core::glam::{DVec3, Vec3};
 use fissure_core::*;
 
-/// A scene using every term, large enough (> one 2048-element chunk of particles, springs and triangles) for
-/// every pass and reduction to run in parallel.
+/// A scene using every term, large enough (more than `par::PAR_MIN` = 16,384 particles, springs and triangles)
+/// for every pass and reduction to run in parallel.
 fn scene() -> Model<f32> {
     let mut b = ModelBuilder::new();
     let ball = SoftBodyOptions {
@@ -15,13 +16,13 @@ fn scene() -> Model<f32> {
         velocity: DVec3::new(0.5, -1.0, 0.2),
         ..Default::default()
     };
-    b.add_soft_body(&Mesh::icosphere(0.3, 4).translated(DVec3::new(0.0, 0.5, 0.0)), &ball).unwrap();
+    b.add_soft_body(&Mesh::icosphere(0.3, 5).translated(DVec3::new(0.0, 0.5, 0.0)), &ball).unwrap();
     b.add_cloth_grid(
-        48,
-        48,
-        0.02,
+        96,
+        96,
+        0.01,
         |p| DVec3::new(p.x - 0.5, 1.2, p.y),
-        &ClothOptions { pins: vec![0, 47], mass: Mass::PerParticle(1e-3), ..Default::default() },
+        &ClothOptions { pins: vec![0, 95], mass: Mass::PerParticle(1e-3), ..Default::default() },
     )
     .unwrap();
     b.wind(WindField::default()).unwrap();
@@ -51,7 +52,7 @@ fn run(threads: usize, integrator: Integrator) -> Vec<u32> {
 #[test]
 fn one_and_two_threads_give_identical_bits() {
     let m = scene();
-    assert!(m.particle_count() > 4096 && m.spring_count() > 4096 && m.tri_count() > 4096);
+    assert!(m.particle_count() > 16_384 && m.spring_count() > 16_384 && m.tri_count() > 16_384);
     for integrator in Integrator::ALL {
         let a = run(1, integrator);
         let b = run(2, integrator);
@@ -61,6 +62,21 @@ fn one_and_two_threads_give_identical_bits() {
         assert!(first.is_none(), "{}: 1 vs 2 threads differ at word {first:?}", integrator.name());
     }
 }
+
+/// The passes run inline (feature `parallel` off, as on wasm32) and on threads give the same bits: both builds
+/// must reproduce this hash of 60 symplectic Euler steps of the scene. (Changes with the physics, like the
+/// facade's state hashes: update it with the reason.)
+#[test]
+fn inline_and_parallel_passes_give_the_recorded_bits() {
+    let bits = run(2, Integrator::SymplecticEuler);
+    let hash = bits.iter().fold(0xcbf2_9ce4_8422_2325u64, |h, &w| {
+        w.to_le_bytes().iter().fold(h, |h, &b| (h ^ b as u64).wrapping_mul(0x100_0000_01b3))
+    });
+    eprintln!("hash {hash:#018x}");
+    assert_eq!(hash, RECORDED, "parallel feature {}", cfg!(feature = "parallel"));
+}
+
+const RECORDED: u64 = 0xb5c8_171f_40de_2861;
 
 #[test]
 fn spring_run_kernel_matches_the_gather_kernel() {

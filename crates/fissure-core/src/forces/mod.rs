@@ -136,17 +136,22 @@ impl<R: Real> ForceScratch<R> {
                 }
             }
         };
-        if m.tri_count() < par::PAR_MIN {
-            for (c, (cross, part)) in self.tri_cross.chunks_mut(par::CHUNK).zip(vp.chunks_mut(nb)).enumerate() {
-                cross_chunk(c * par::CHUNK, cross, part);
-            }
-        } else {
+        #[cfg(feature = "parallel")]
+        let done = m.tri_count() >= par::PAR_MIN && {
             use rayon::prelude::*;
             self.tri_cross
                 .par_chunks_mut(par::CHUNK)
                 .zip(vp.par_chunks_mut(nb))
                 .enumerate()
                 .for_each(|(c, (cross, part))| cross_chunk(c * par::CHUNK, cross, part));
+            true
+        };
+        #[cfg(not(feature = "parallel"))]
+        let done = false;
+        if !done {
+            for (c, (cross, part)) in self.tri_cross.chunks_mut(par::CHUNK).zip(vp.chunks_mut(nb)).enumerate() {
+                cross_chunk(c * par::CHUNK, cross, part);
+            }
         }
         let sixth = R::from_f64(1.0 / 6.0);
         for b in 0..nb {

@@ -6,6 +6,7 @@ use crate::contact::geometry::{closest_on_segments, closest_on_triangle};
 use crate::contact::grid::HashGrid;
 use crate::contact::{Elements, GAMMA, RELAX, same_origin};
 use glam::DVec3;
+#[cfg(feature = "parallel")]
 use rayon::prelude::*;
 
 /// Gauss–Seidel sweeps over the pairs at most (each sweep stops early once the impulses settle). Layers of a
@@ -25,9 +26,8 @@ const TASK: usize = 512;
 /// `min` items, else in one call on this thread straight into `out` (the same result either way: `f` maps each
 /// item on its own).
 fn extend_chunks<T: Sync, U: Send>(out: &mut Vec<U>, items: &[T], min: usize, f: impl Fn(&[T], &mut Vec<U>) + Sync) {
-    if items.len() < min {
-        f(items, out);
-    } else {
+    #[cfg(feature = "parallel")]
+    if items.len() >= min {
         let parts: Vec<Vec<U>> = items
             .par_chunks(TASK)
             .map(|c| {
@@ -37,7 +37,10 @@ fn extend_chunks<T: Sync, U: Send>(out: &mut Vec<U>, items: &[T], min: usize, f:
             })
             .collect();
         parts.into_iter().for_each(|p| out.extend(p));
+        return;
     }
+    let _ = min;
+    f(items, out);
 }
 
 /// Candidate searches per element cost a grid query: parallel from this many elements.
@@ -321,11 +324,14 @@ impl<R: Real> CpuSolver<R> {
             })
         };
         // (Maxima: the same in any grouping.)
+        #[cfg(feature = "parallel")]
         let (d2, r2) = if el.particles.len() < crate::par::PAR_MIN {
             moves(&el.particles)
         } else {
             el.particles.par_chunks(TASK).map(moves).reduce(|| (0.0, 0.0), |a, b| (a.0.max(b.0), a.1.max(b.1)))
         };
+        #[cfg(not(feature = "parallel"))]
+        let (d2, r2) = moves(&el.particles);
         let (d_max, drift) = (d2.sqrt(), r2.sqrt());
         if !(d_max.is_finite() && drift.is_finite()) {
             blown.store(true, Ordering::Relaxed);
