@@ -154,9 +154,11 @@ pub fn connected_components(vertex_count: usize, edges: impl Iterator<Item = [u3
     (count, label)
 }
 
-/// The edges along cracks: boundary edges (one face) that have a twin, another boundary edge between copies of
-/// the same two original particles (`origin` followed to its root): the two lips of a slit, and the rim of a hole
-/// with the rim of the block that left it. A mesh's own border (a cloth's edge) has no twin and is not a crack.
+/// The edges along cracks: boundary edges (one face) that touch a particle fracture made (`origin` not itself:
+/// the virtual nodes a spring split puts on a cut spring, the copies of a core block's ring), or that have a twin,
+/// another boundary edge between copies of the same two original particles (`origin` followed to its root: the
+/// rim of a hole, whose vertices kept their identity, with the rim of the block that left it). A mesh's own border
+/// (a cloth's edge) touches no such particle and has no twin: it is not a crack, except where a crack meets it.
 /// What the renderer draws as crack lines.
 pub fn crack_edges(triangles: &[[u32; 3]], origin: &[u32]) -> Vec<[u32; 2]> {
     let root = |mut v: u32| {
@@ -186,6 +188,7 @@ pub fn crack_edges(triangles: &[[u32; 3]], origin: &[u32]) -> Vec<[u32; 2]> {
         i = j;
     }
     boundary.sort_unstable();
+    let made = |v: u32| origin.get(v as usize).is_some_and(|&o| o != v);
     let mut out = Vec::new();
     let mut i = 0;
     while i < boundary.len() {
@@ -193,11 +196,11 @@ pub fn crack_edges(triangles: &[[u32; 3]], origin: &[u32]) -> Vec<[u32; 2]> {
         while j < boundary.len() && boundary[j].0 == boundary[i].0 {
             j += 1;
         }
-        if j - i >= 2 {
-            out.extend(boundary[i..j].iter().map(|(_, e)| *e));
-        }
+        let twinned = j - i >= 2;
+        out.extend(boundary[i..j].iter().map(|(_, e)| *e).filter(|&[a, b]| twinned || made(a) || made(b)));
         i = j;
     }
+    out.sort_unstable();
     out
 }
 

@@ -1,5 +1,6 @@
 //! Crack edges (`topology::crack_edges`, drawn by the renderer): none on an intact mesh or along a cloth's own
-//! border; both lips of a slit; the rims of a hole and of the block that left it.
+//! border; both lips of a slit (the virtual nodes' edges included); the rims of a hole and of the block that
+//! left it.
 
 use fissure_core::topology::crack_edges;
 use fissure_core::*;
@@ -35,8 +36,8 @@ fn a_cut_cloth_shows_both_lips_and_not_its_border() {
     let border = boundary_edges(&m.tri_indices);
     assert!(cracks.iter().all(|e| border.contains(e)), "crack edges are boundary edges");
     assert!(cracks.len() >= 4 && cracks.len() % 2 == 0, "two lips: {cracks:?}");
-    // The cloth's outer border (32 edges) is not a crack.
-    assert!(border.len() >= cracks.len() + 32);
+    // Every boundary edge is either on the cloth's outer border (32 edges) or on the slit, never both.
+    assert_eq!(border.len(), cracks.len() + 32, "{cracks:?}");
 }
 
 #[test]
