@@ -6,6 +6,8 @@
 //! fracture sequences of `crates/fissure-core/tests/fracture.rs` check the same after each split one by one;
 //! these check them along propagating cracks.
 
+mod common;
+
 use fissure::glam::DVec3;
 use fissure::*;
 use proptest::prelude::*;
@@ -64,28 +66,8 @@ proptest! {
         notch in any::<bool>(),
     ) {
         let (width, height) = (0.2, 0.1);
-        let h = width / (nx - 1) as f64;
-        let ny = (height / h).round() as usize + 1;
-        let mut b = ModelBuilder::new();
-        b.gravity(DVec3::ZERO).unwrap();
-        let eh = 1000.0;
-        let opts = ClothOptions {
-            mass: Mass::AreaDensity(0.5),
-            stiffness: Stiffness::Membrane(eh),
-            shear: Some(Stiffness::Membrane(eh / 4.0)),
-            bending: Some(Stiffness::Membrane(eh / 100.0)),
-            damping: Damping::Ratio(0.3),
-            pins: Vec::new(),
-            aero: Aero::NONE,
-            fracture: Some(Breakable { tear_strength: tear, ..Default::default() }),
-        };
-        let body = b.add_cloth_grid(nx, ny, h, |p| p, &opts).unwrap();
-        let left: Vec<usize> = (0..ny).map(|j| body.first_particle + j * nx).collect();
-        let right: Vec<usize> = left.iter().map(|i| i + nx - 1).collect();
-        b.add_handle(&left, Handle::linear(DVec3::new(-speed, 0.0, 0.0), 0.0, 10.0)).unwrap();
-        b.add_handle(&right, Handle::linear(DVec3::new(speed, 0.0, 0.0), 0.0, 10.0)).unwrap();
-        let mut w = World::new(b.finalize::<f64>().unwrap(), SolverConfig::default())
-            .with_fracture(FractureConfig::default());
+        let ny = (height / (width / (nx - 1) as f64)).round() as usize + 1;
+        let (mut w, _) = common::pulled_sheet(nx, width, height, speed, tear);
         if notch {
             // Cut the vertical edge spring at the middle of the top edge.
             let (i, j) = (nx / 2, nx / 2 + nx);

@@ -185,11 +185,6 @@ impl Scene {
         }
         Ok(scene)
     }
-
-    /// This scene's file with overrides applied, read again (for sweeps: one file, many variants).
-    pub fn with_overrides(&self, overrides: &[Override]) -> Result<Scene, SceneError> {
-        Scene::load_with(&self.path, overrides)
-    }
 }
 
 #[cfg(test)]

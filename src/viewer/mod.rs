@@ -20,10 +20,15 @@
 //! frames to a PNG and closes the window: read back from the window's own surface texture when the driver
 //! allows (lavapipe on Xvfb does), otherwise drawn again offscreen from the same state and camera.
 
+mod drag;
+mod script;
+use drag::Drag;
+pub use script::Action;
+
 use crate::gpu::render::{Camera, Offscreen, Positions, Readback, Renderer, View, targets};
 use crate::gpu::{GpuError, wgpu};
 use crate::output::{OutputError, save_png};
-use crate::{FractureKind, Handle, Stage, StepError, TopologyDelta, World};
+use crate::{FractureKind, Stage, StepError, TopologyDelta, World};
 use glam::Vec3;
 use std::path::PathBuf;
 use std::sync::Arc;
@@ -51,51 +56,6 @@ pub struct ViewerOptions {
     pub paused: bool,
     /// Input to replay, by frame number (for tests and demos): what a user would do with mouse and keys.
     pub script: Vec<(usize, Action)>,
-}
-
-/// A scripted input (see [`ViewerOptions::script`]).
-#[derive(Clone, Debug, PartialEq)]
-pub enum Action {
-    /// A key press (the characters of the key table, or `" "` for space).
-    Key(String),
-    /// A right click at pixel `(x, y)`: punctures the body there.
-    Puncture(f32, f32),
-    /// A right click on the centre of body `b` as seen from the camera.
-    PunctureBody(usize),
-    /// A left press on the centre of body `b`, then the cursor moved by `(dx, dy)` pixels and held there: the
-    /// grabbed mass point is pulled towards it (past a cloth's strength, it tears).
-    DragBody(usize, f32, f32),
-    /// The left button released (ends a drag).
-    Release,
-}
-
-impl std::str::FromStr for Action {
-    type Err = String;
-
-    /// `key:f`, `puncture:480,270`, `puncture-body:0`, `drag-body:0,0,300` or `release:`.
-    fn from_str(s: &str) -> Result<Action, String> {
-        let (kind, arg) = s.split_once(':').ok_or_else(|| {
-            format!("{s:?}: want key:K, puncture:X,Y, puncture-body:B, drag-body:B,DX,DY or release:")
-        })?;
-        match kind {
-            "key" => Ok(Action::Key(arg.to_string())),
-            "puncture" => {
-                let (x, y) = arg.split_once(',').ok_or_else(|| format!("{s:?}: want puncture:X,Y"))?;
-                let p = |v: &str| v.trim().parse::<f32>().map_err(|_| format!("{s:?}: {v:?} is not a pixel"));
-                Ok(Action::Puncture(p(x)?, p(y)?))
-            }
-            "puncture-body" => arg.parse().map(Action::PunctureBody).map_err(|_| format!("{s:?}: not a body index")),
-            "drag-body" => {
-                let v: Vec<&str> = arg.split(',').map(str::trim).collect();
-                let bad = || format!("{s:?}: want drag-body:B,DX,DY");
-                let [b, dx, dy] = v[..] else { return Err(bad()) };
-                let p = |v: &str| v.parse::<f32>().map_err(|_| bad());
-                Ok(Action::DragBody(b.parse().map_err(|_| bad())?, p(dx)?, p(dy)?))
-            }
-            "release" => Ok(Action::Release),
-            other => Err(format!("{s:?}: unknown action {other:?}")),
-        }
-    }
 }
 
 impl Default for ViewerOptions {
@@ -220,15 +180,6 @@ struct Gfx {
     adapter: String,
 }
 
-/// A grabbed mass point: its index and the plane (through its grab position, facing the camera) it is dragged in.
-struct Drag {
-    particle: usize,
-    plane_point: Vec3,
-    target: Vec3,
-    /// The moving pin ([`Handle`]) that holds the grabbed particle (and any copies fracture splits off it).
-    handle: usize,
-}
-
 struct App {
     options: ViewerOptions,
     world: World<f32>,
@@ -253,9 +204,6 @@ struct App {
     stage_ms: [f64; Stage::ALL.len()],
     screenshot: Option<(PathBuf, bool)>,
 }
-
-/// The fastest a grabbed mass point follows the cursor \[m/s\].
-const DRAG_SPEED: f32 = 2.0;
 
 impl App {
     fn fail(&mut self, event_loop: &ActiveEventLoop, e: ViewerError) {
@@ -362,52 +310,6 @@ impl App {
         best.map(|b| b.2)
     }
 
-    fn drag_target(&self, plane_point: Vec3) -> Vec3 {
-        let (w, h) = self.size();
-        let (o, d) = self.camera.ray(self.cursor.0, self.cursor.1, w, h);
-        let n = (self.camera.eye() - self.camera.target).normalize();
-        let denom = d.dot(n);
-        if denom.abs() < 1e-6 {
-            return plane_point;
-        }
-        o + d * ((plane_point - o).dot(n) / denom)
-    }
-
-    /// Grabs particle `i` (not one already pinned or on a handle): it becomes a moving pin, a [`Handle`] of its
-    /// own, that [`App::simulate`] moves towards `target`; fracture's copies of it follow the same handle.
-    fn grab(&mut self, i: usize, target: Vec3) {
-        let m = &mut self.world.model;
-        if m.particle_inv_mass[i] == 0.0 || m.particle_handle[i] != u32::MAX {
-            return;
-        }
-        let h = m.handles.len();
-        m.handles.push(Handle { keys: vec![(self.world.state.time, glam::DVec3::ZERO)] });
-        m.particle_handle[i] = h as u32;
-        m.particle_inv_mass[i] = 0.0;
-        self.world.solver.notify_model_changed(&self.world.model, &TopologyDelta::whole());
-        let p = self.world.state.particle_q[i];
-        self.drag = Some(Drag { particle: i, plane_point: p, target, handle: h });
-    }
-
-    /// Lets go: the grabbed particle and its copies are free again, moving as the pin last moved them.
-    fn release(&mut self) {
-        let Some(d) = self.drag.take() else { return };
-        let m = &mut self.world.model;
-        if d.handle >= m.handles.len() {
-            return;
-        }
-        for i in 0..m.particle_count() {
-            if m.particle_handle[i] == d.handle as u32 {
-                m.particle_handle[i] = u32::MAX;
-                let mass = m.particle_mass[i];
-                m.particle_inv_mass[i] = if mass > 0.0 { 1.0 / mass } else { 0.0 };
-            }
-        }
-        // The drag's handle is the last one: nothing else adds handles while it is held.
-        m.handles.truncate(d.handle);
-        self.world.solver.notify_model_changed(&self.world.model, &TopologyDelta::whole());
-    }
-
     /// Where the centre of body `b` is on screen \[px\].
     fn body_center_px(&self, b: usize) -> Option<(f32, f32)> {
         let w = &self.world;
@@ -476,22 +378,7 @@ impl App {
     fn simulate(&mut self) -> Result<(), StepError> {
         let t0 = Instant::now();
         self.world.reset_timers();
-        // The grabbed particle's pin moves towards the cursor over this frame, at most DRAG_SPEED.
-        if let Some(d) = &self.drag
-            && d.handle < self.world.model.handles.len()
-        {
-            let frame = self.options.frame_time;
-            let q = self.world.state.particle_q[d.particle];
-            let max = DRAG_SPEED * frame as f32;
-            let mut step = d.target - q;
-            if step.length() > max {
-                step = step.normalize() * max;
-            }
-            let t = self.world.state.time;
-            let h = &mut self.world.model.handles[d.handle];
-            let off = h.offset(t);
-            h.keys = vec![(t, off), (t + frame, off + step.as_dvec3())];
-        }
+        self.move_pin();
         if self.world.advance(self.options.frame_time, self.dt)?.topology_changed {
             self.model_changed();
         }
