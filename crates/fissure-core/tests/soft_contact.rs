@@ -157,8 +157,8 @@ fn ball_rests_on_a_ball_on_the_ground_without_sinking_or_jitter() {
     assert!(ke_end <= ke_mid.max(1e-6), "jitter grows: {ke_mid} -> {ke_end}");
 }
 
-#[test]
-fn a_cloth_dropped_on_a_ball_folds_without_crossing_itself() {
+/// A 32² cloth with self-collision above a ball collider and the ground.
+fn folding_cloth() -> Model<f32> {
     let mut b = ModelBuilder::new();
     b.add_collider(Collider::ball(glam::Vec3::new(0.0, 0.3, 0.0), 0.2).with_friction(0.4)).unwrap();
     b.add_collider(Collider::ground(0.0)).unwrap();
@@ -174,7 +174,12 @@ fn a_cloth_dropped_on_a_ball_folds_without_crossing_itself() {
     let h =
         b.add_cloth_grid(n, n, w / (n - 1) as f64, |q| DVec3::new(q.x - w / 2.0, 0.6, q.y + w / 2.0), &opts).unwrap();
     b.set_contact(h.index, Contact { self_collision: true, ..Default::default() }).unwrap();
-    let m: Model<f32> = b.finalize().unwrap();
+    b.finalize().unwrap()
+}
+
+#[test]
+fn a_cloth_dropped_on_a_ball_folds_without_crossing_itself() {
+    let m = folding_cloth();
     let mut s = m.state();
     let mut solver = CpuSolver::<f32>::new(SolverConfig { substep_safety: Some(0.8), ..Default::default() });
     let mut near = 0;
@@ -187,6 +192,38 @@ fn a_cloth_dropped_on_a_ball_folds_without_crossing_itself() {
         assert!(x.is_empty(), "frame {frame}: {} crossing triangle pairs, first {:?}", x.len(), x[0]);
     }
     assert!(near > 0, "the cloth never touched itself");
+}
+
+/// The candidate lists are kept between steps while no missing pair can have come within reach (Verlet lists,
+/// per-body drift boxes): if that test ever let a pair through, the pairs within reach would differ from a list
+/// built afresh, and so would the bits. A folding cloth (one body against itself) and colliding balloons (bodies
+/// that approach from afar).
+#[test]
+fn kept_candidate_lists_give_the_bits_of_lists_rebuilt_every_step() {
+    let bits = |s: &State<f32>| {
+        s.particle_q.iter().chain(&s.particle_qd).flat_map(|v| v.to_array()).map(f32::to_bits).collect::<Vec<_>>()
+    };
+    let run = |m: &Model<f32>, dt: f64, steps: usize, always: bool| {
+        let mut s = m.state();
+        let mut solver = CpuSolver::<f32>::new(SolverConfig { substep_safety: Some(0.8), ..Default::default() });
+        solver.rebuild_contact_lists_every_step(always);
+        let mut pushed = 0;
+        for _ in 0..steps {
+            solver.step(m, &mut s, dt).unwrap();
+            pushed += solver.contact_stats().pushed;
+        }
+        (bits(&s), solver.contact_stats(), pushed)
+    };
+    let cloth = folding_cloth();
+    let (balloons, _, _) = head_on::<f32>();
+    for (name, m, dt, steps) in [("cloth", &cloth, 1.0 / 600.0, 400), ("balloons", &balloons, 1e-4, 1500)] {
+        let (kept, ks, pushed) = run(m, dt, steps, false);
+        let (fresh, fs, _) = run(m, dt, steps, true);
+        assert!(pushed > 0, "{name}: nothing touched");
+        assert_eq!(fs.builds, fs.steps, "{name}: rebuilt every step");
+        assert!(ks.builds * 3 < ks.steps, "{name}: lists kept ({} builds in {} steps)", ks.builds, ks.steps);
+        assert!(kept == fresh, "{name}: kept lists changed the result");
+    }
 }
 
 #[test]

@@ -16,9 +16,10 @@ const SWEEPS: usize = 8;
 /// could close this step before it needs one) is under this fraction of its thickness.
 const HOT: f64 = 0.25;
 /// The candidate search radius in units of the step's reach `r` (plus a thickness): the list stays valid while
-/// no particle drifts `((SKIN - 1) r + h) / 2`. Measured (2026-11-23): 3 halves the rebuilds of cloth_fold but
-/// its larger lists cost 60% more per step; balloons and fracture within 5%.
-const SKIN: f64 = 2.0;
+/// no particle drifts `((SKIN - 1) r + h) / 2`. Measured (2026-11-23, `cargo bench --bench contact`): 1.5
+/// against 2 rebuilds the folding 128² cloth's list 101 times in 600 substeps instead of 74, but its lists are a
+/// third the size: contact 14.2–14.6 ms per step against 16.7–17.2; the fracture and balloons scenes within noise.
+const SKIN: f64 = 1.5;
 /// Elements per parallel task of the candidate search.
 const TASK: usize = 512;
 
@@ -43,10 +44,12 @@ fn extend_chunks<T: Sync, U: Send>(out: &mut Vec<U>, items: &[T], min: usize, f:
     f(items, out);
 }
 
-/// Candidate searches per element cost a grid query: parallel from this many elements.
-const PAR_BUILD: usize = 2 * TASK;
-/// Pair evaluations cost a closest-point computation: parallel from this many.
-const PAR_NEAR: usize = 8 * TASK;
+/// Candidate searches per element cost a grid query (~0.2–1 µs): parallel from this many elements. Measured
+/// (2026-11-23): from 1,024, the fracture scene's builds woke the pool for ~1,400 triangles and spent more in
+/// wake-ups (`sched_yield` 5 % of its run) than they saved.
+const PAR_BUILD: usize = 8 * TASK;
+/// Pair evaluations cost a box test and at most a closest-point computation: parallel from this many.
+const PAR_NEAR: usize = 32 * TASK;
 
 /// A pair within reach this step: four particles with weights (`Σ w x` is the vector between the closest
 /// points, from the second element to the first), `Σ w² / m` (the inverse of its effective mass; 0: all pinned),
@@ -95,6 +98,9 @@ pub(super) struct ContactScratch<R: Real> {
     /// Positions when the candidates were found, and their search radius (0: none yet).
     xb: Vec<R::V>,
     radius: f64,
+    /// `gaps[a * nb + b]`: how far apart the boxes of bodies `a` and `b` were when the candidates were found
+    /// (0 where they met; empty with more than [`CLOSING_BODIES`] bodies).
+    gaps: Vec<f64>,
     vt: Vec<[u32; 2]>,
     ee: Vec<[u32; 2]>,
     pairs: Vec<Pair>,
@@ -105,6 +111,9 @@ pub(super) struct ContactScratch<R: Real> {
     grid: HashGrid,
     egrid: HashGrid,
     pub stats: ContactStats,
+    /// Rebuild the candidate lists at every step (a check of the Verlet list: see
+    /// `CpuSolver::rebuild_contact_lists_every_step`).
+    rebuild_always: bool,
 }
 
 impl<R: Real> ContactScratch<R> {
@@ -146,13 +155,34 @@ impl<R: Real> ContactScratch<R> {
                     .enumerate()
                     .any(|(b, &(blo, bhi))| b != body as usize && blo.cmple(hi).all() && lo.cmple(bhi).all())
         };
+        let nb = m.body_count();
+        self.gaps.clear();
+        if nb <= CLOSING_BODIES {
+            self.gaps.extend((0..nb * nb).map(|k| {
+                let ((alo, ahi), (blo, bhi)) = (boxes[k / nb], boxes[k % nb]);
+                (alo - bhi).max(blo - ahi).max(DVec3::ZERO).length()
+            }));
+        }
         let pad = radius + l_max;
         let active: Vec<bool> = (0..m.body_count())
             .map(|b| boxes[b].0.is_finite() && worth(b as u32, boxes[b].0 - pad, boxes[b].1 + pad))
             .collect();
-        let on = |i: u32| active[m.particle_body[i as usize] as usize];
-        self.grid.build(cell, parts.len(), |k| on(parts[k]).then(|| x(parts[k])));
-        self.egrid.build(cell, edges.len(), |k| on(edges[k][0]).then(|| 0.5 * (x(edges[k][0]) + x(edges[k][1]))));
+        // Only elements that can meet another body (or their own, if it collides with itself) go into the grids:
+        // the ball a small piece broke from is not searched far from the piece.
+        let pad = DVec3::splat(radius);
+        self.grid.build(cell, parts.len(), |k| {
+            let (i, p) = (parts[k], x(parts[k]));
+            let b = m.particle_body[i as usize];
+            (active[b as usize] && worth(b, p - pad, p + pad)).then_some(p)
+        });
+        // Edge midpoints in cells of `radius + l_max`: an edge's query box (its box grown by the reach below)
+        // spans at most 3 cells a side.
+        self.egrid.build(radius + l_max, edges.len(), |k| {
+            let [i, j] = edges[k];
+            let (p, q) = (x(i), x(j));
+            let b = m.particle_body[i as usize];
+            (active[b as usize] && worth(b, p.min(q) - pad, p.max(q) + pad)).then(|| 0.5 * (p + q))
+        });
         let (grid, egrid) = (&self.grid, &self.egrid);
         let r2 = radius * radius;
         self.vt.clear();
@@ -165,6 +195,7 @@ impl<R: Real> ContactScratch<R> {
                 if !active[tb as usize] || !worth(tb, lo, hi) {
                     continue;
                 }
+                let from = out.len();
                 grid.query(lo, hi, |k| {
                     let v = parts[k as usize];
                     if tv.iter().any(|&u| same_origin(m, u, v)) || !allowed(m.particle_body[v as usize], tb) {
@@ -179,6 +210,9 @@ impl<R: Real> ContactScratch<R> {
                         out.push([v, t]);
                     }
                 });
+                // Partners in index order, whatever the grid's cells: the pairs' order (and so the impulses'
+                // Gauss–Seidel order) does not depend on the cell size.
+                out[from..].sort_unstable();
             }
         });
         let reach = radius + 0.5 * l_max;
@@ -193,6 +227,7 @@ impl<R: Real> ContactScratch<R> {
                 if !active[eb as usize] || !worth(eb, lo, hi) {
                     continue;
                 }
+                let from = out.len();
                 egrid.query(lo, hi, |f| {
                     let f = f as usize;
                     if f <= e {
@@ -214,6 +249,7 @@ impl<R: Real> ContactScratch<R> {
                         out.push([e as u32, f as u32]);
                     }
                 });
+                out[from..].sort_unstable();
             }
         });
         self.xb.clone_from(&self.x0);
@@ -240,16 +276,26 @@ impl<R: Real> ContactScratch<R> {
             Some(Pair { p, w, wsum, n, d, h, mu, j: 0.0 })
         };
         let edges = &el.edges;
+        // Boxes first: most candidates are not within `r` this step, and a box test is cheaper than closest points.
+        let apart = |lo: DVec3, hi: DVec3, lo2: DVec3, hi2: DVec3| (lo2 - hi).max(lo - hi2).max_element() >= r;
         let vt_pair = |&[v, t]: &[u32; 2]| {
             let tv = m.tri_indices[t as usize];
             let [a, b, cc] = tv.map(x);
-            let w = closest_on_triangle(x(v), a, b, cc);
+            let p = x(v);
+            if apart(p, p, a.min(b).min(cc), a.max(b).max(cc)) {
+                return None;
+            }
+            let w = closest_on_triangle(p, a, b, cc);
             let b2 = [m.particle_body[v as usize], m.tri_body[t as usize]];
             pair([v, tv[0], tv[1], tv[2]], [1.0, -w[0], -w[1], -w[2]], (b - a).cross(cc - a), b2)
         };
         let ee_pair = |&[e, f]: &[u32; 2]| {
             let ([a0, a1], [b0, b1]) = (edges[e as usize], edges[f as usize]);
-            let (s, t) = closest_on_segments(x(a0), x(a1), x(b0), x(b1));
+            let (p, q, u, w) = (x(a0), x(a1), x(b0), x(b1));
+            if apart(p.min(q), p.max(q), u.min(w), u.max(w)) {
+                return None;
+            }
+            let (s, t) = closest_on_segments(p, q, u, w);
             let fallback = (x(a1) - x(a0)).cross(x(b1) - x(b0));
             let b2 = [m.particle_body[a0 as usize], m.particle_body[b0 as usize]];
             pair([a0, a1, b0, b1], [1.0 - s, s, t - 1.0, -t], fallback, b2)
@@ -261,40 +307,59 @@ impl<R: Real> ContactScratch<R> {
     }
 }
 
-/// Bodies past which [`closing`] is not worth its pairwise loop (the global drift test decides alone).
+/// Bodies past which [`still_valid`] is not worth its pairwise loop (the global drift test decides alone).
 const CLOSING_BODIES: usize = 64;
 
-/// How much closer any two elements that may touch can have come since `xb` (at `x0`): over the pairs of bodies
-/// in contact that interact, the largest `|c_a - c_b| + dev_a + dev_b`, with `c` a body's mean displacement
-/// and `dev` its particles' largest deviation from it (a point of an element moves by `c` plus at most `dev`).
-/// `None` with more than [`CLOSING_BODIES`] bodies.
-fn closing<R: Real>(m: &Model<R>, particles: &[u32], x0: &[R::V], xb: &[R::V]) -> Option<f64> {
-    let nb = m.body_count();
-    if nb > CLOSING_BODIES {
-        return None;
+/// What one sweep over the particles in contact measured (see `CpuSolver::contact`).
+struct Moves {
+    /// Largest squared move this step.
+    d2: f64,
+    /// Largest squared drift since the candidates were found.
+    r2: f64,
+    /// Each body's box of drifts (empty: not measured).
+    lo: Vec<DVec3>,
+    hi: Vec<DVec3>,
+}
+
+impl Moves {
+    fn new(bodies: usize) -> Self {
+        Moves { d2: 0.0, r2: 0.0, lo: vec![DVec3::INFINITY; bodies], hi: vec![DVec3::NEG_INFINITY; bodies] }
     }
-    let mut mean = vec![(DVec3::ZERO, 0usize); nb];
-    let d = |i: usize| x0[i].to_dvec3() - xb[i].to_dvec3();
-    for &i in particles {
-        let b = m.particle_body[i as usize] as usize;
-        mean[b].0 += d(i as usize);
-        mean[b].1 += 1;
-    }
-    let c: Vec<DVec3> = mean.iter().map(|&(s, n)| if n > 0 { s / n as f64 } else { DVec3::ZERO }).collect();
-    let mut dev = vec![0.0f64; nb];
-    for &i in particles {
-        let b = m.particle_body[i as usize] as usize;
-        dev[b] = dev[b].max((d(i as usize) - c[b]).length());
-    }
-    let mut worst: f64 = 0.0;
-    for a in 0..nb {
-        for b in a..nb {
-            if mean[a].1 > 0 && mean[b].1 > 0 && (a != b || m.body_self_contact[a]) {
-                worst = worst.max((c[a] - c[b]).length() + dev[a] + dev[b]);
-            }
+
+    fn merge(mut self, o: Moves) -> Moves {
+        self.d2 = self.d2.max(o.d2);
+        self.r2 = self.r2.max(o.r2);
+        for (a, b) in self.lo.iter_mut().zip(o.lo) {
+            *a = a.min(b);
         }
+        for (a, b) in self.hi.iter_mut().zip(o.hi) {
+            *a = a.max(b);
+        }
+        self
     }
-    Some(worst)
+}
+
+/// True if no pair missing from the list (built with `radius`, body boxes `gaps` apart) can have come within
+/// `r`. Over the pairs of bodies in contact that interact, a missing pair was at least `max(radius, gap)` apart
+/// and has closed in by at most the largest relative drift of a point of one body and a point of the other,
+/// which the bodies' boxes of drifts bound (`mv`; any point of an element drifts within its body's box): a piece
+/// riding on the ball it came from, a cloth falling as a whole, or a piece lying far from every other body does
+/// not force a rebuild. False when the boxes were not measured (more than [`CLOSING_BODIES`] bodies).
+fn still_valid<R: Real>(m: &Model<R>, mv: &Moves, gaps: &[f64], radius: f64, r: f64) -> bool {
+    let nb = m.body_count();
+    if mv.lo.len() != nb || gaps.len() != nb * nb {
+        return false;
+    }
+    let seen = |b: usize| mv.lo[b].x <= mv.hi[b].x;
+    (0..nb).all(|a| {
+        (a..nb).all(|b| {
+            if !(seen(a) && seen(b) && (a != b || m.body_self_contact[a])) {
+                return true;
+            }
+            let closing = (mv.hi[a] - mv.lo[b]).abs().max((mv.hi[b] - mv.lo[a]).abs()).length();
+            radius.max(gaps[a * nb + b]) - closing >= r
+        })
+    })
 }
 
 impl<R: Real> CpuSolver<R> {
@@ -315,24 +380,37 @@ impl<R: Real> CpuSolver<R> {
         // The largest move this step, and the largest drift since the candidates were found.
         let (x0, xb, q) = (&c.x0, &c.xb, &s.particle_q);
         let fresh = c.radius > 0.0 && xb.len() == x0.len();
+        // One sweep: the largest move this step, the largest drift since the candidates were found, and each
+        // body's box of drifts (with few bodies).
+        let boxes = if fresh && m.body_count() <= CLOSING_BODIES { m.body_count() } else { 0 };
         let moves = |ps: &[u32]| {
-            ps.iter().fold((0.0f64, 0.0f64), |(d, r), &i| {
+            let mut mv = Moves::new(boxes);
+            for &i in ps {
                 let i = i as usize;
-                let moved = (q[i].to_dvec3() - x0[i].to_dvec3()).length_squared();
-                let drifted = if fresh { (x0[i].to_dvec3() - xb[i].to_dvec3()).length_squared() } else { 0.0 };
-                (d.max(moved), r.max(drifted))
-            })
+                let x = x0[i].to_dvec3();
+                mv.d2 = mv.d2.max((q[i].to_dvec3() - x).length_squared());
+                if fresh {
+                    let drift = x - xb[i].to_dvec3();
+                    mv.r2 = mv.r2.max(drift.length_squared());
+                    if boxes > 0 {
+                        let b = m.particle_body[i] as usize;
+                        mv.lo[b] = mv.lo[b].min(drift);
+                        mv.hi[b] = mv.hi[b].max(drift);
+                    }
+                }
+            }
+            mv
         };
-        // (Maxima: the same in any grouping.)
+        // (Maxima and boxes: the same in any grouping.)
         #[cfg(feature = "parallel")]
-        let (d2, r2) = if el.particles.len() < crate::par::PAR_MIN {
+        let mv = if el.particles.len() < crate::par::PAR_MIN {
             moves(&el.particles)
         } else {
-            el.particles.par_chunks(TASK).map(moves).reduce(|| (0.0, 0.0), |a, b| (a.0.max(b.0), a.1.max(b.1)))
+            el.particles.par_chunks(TASK).map(moves).reduce(|| Moves::new(boxes), Moves::merge)
         };
         #[cfg(not(feature = "parallel"))]
-        let (d2, r2) = moves(&el.particles);
-        let (d_max, drift) = (d2.sqrt(), r2.sqrt());
+        let mv = moves(&el.particles);
+        let (d_max, drift) = (mv.d2.sqrt(), mv.r2.sqrt());
         if !(d_max.is_finite() && drift.is_finite()) {
             blown.store(true, Ordering::Relaxed);
             return;
@@ -342,9 +420,8 @@ impl<R: Real> CpuSolver<R> {
         // Pairs missing from the list were `radius` apart when it was built and have closed in by at most
         // 2 drift since; when that is not enough, by at most what their bodies moved relative to each other
         // (a piece riding on the ball it came from, a cloth falling as a whole, does not force a rebuild).
-        let valid = fresh
-            && (c.radius - 2.0 * drift >= r
-                || closing(m, &el.particles, &c.x0, &c.xb).is_some_and(|close| c.radius - close >= r));
+        let valid =
+            !c.rebuild_always && fresh && (c.radius - 2.0 * drift >= r || still_valid(m, &mv, &c.gaps, c.radius, r));
         if !valid {
             c.build(m, SKIN * r + h_max);
         }
@@ -462,5 +539,14 @@ impl<R: Real> CpuSolver<R> {
     /// What the contact pass did in the last step.
     pub fn contact_stats(&self) -> ContactStats {
         self.ct.stats
+    }
+
+    /// Rebuilds the contact candidate lists at every step instead of keeping them while they are valid. The
+    /// result is the same to the bit (the pairs within reach are listed in index order whenever the list was
+    /// built, so a valid list and a fresh one give the same pairs in the same order); only the cost differs. For
+    /// tests of that claim.
+    #[doc(hidden)]
+    pub fn rebuild_contact_lists_every_step(&mut self, on: bool) {
+        self.ct.rebuild_always = on;
     }
 }
