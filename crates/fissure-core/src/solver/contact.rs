@@ -110,6 +110,8 @@ pub(super) struct ContactScratch<R: Real> {
     hot: Vec<u32>,
     grid: HashGrid,
     egrid: HashGrid,
+    /// Each edge's box at `x0` when the candidates were found (one contiguous load per edge a query visits).
+    eboxes: Vec<[DVec3; 2]>,
     pub stats: ContactStats,
     /// Rebuild the candidate lists at every step (a check of the Verlet list: see
     /// `CpuSolver::rebuild_contact_lists_every_step`).
@@ -177,11 +179,16 @@ impl<R: Real> ContactScratch<R> {
         });
         // Edge midpoints in cells of `radius + l_max`: an edge's query box (its box grown by the reach below)
         // spans at most 3 cells a side.
-        self.egrid.build(radius + l_max, edges.len(), |k| {
-            let [i, j] = edges[k];
+        self.eboxes.clear();
+        self.eboxes.extend(edges.iter().map(|&[i, j]| {
             let (p, q) = (x(i), x(j));
-            let b = m.particle_body[i as usize];
-            (active[b as usize] && worth(b, p.min(q) - pad, p.max(q) + pad)).then(|| 0.5 * (p + q))
+            [p.min(q), p.max(q)]
+        }));
+        let eboxes = &self.eboxes;
+        self.egrid.build(radius + l_max, edges.len(), |k| {
+            let [lo, hi] = eboxes[k];
+            let b = m.particle_body[edges[k][0] as usize];
+            (active[b as usize] && worth(b, lo - pad, hi + pad)).then(|| 0.5 * (lo + hi))
         });
         let (grid, egrid) = (&self.grid, &self.egrid);
         let r2 = radius * radius;
@@ -198,11 +205,12 @@ impl<R: Real> ContactScratch<R> {
                 let from = out.len();
                 grid.query(lo, hi, |k| {
                     let v = parts[k as usize];
-                    if tv.iter().any(|&u| same_origin(m, u, v)) || !allowed(m.particle_body[v as usize], tb) {
-                        return;
-                    }
+                    // The box first (one load; most points the query visits are outside it).
                     let p = x(v);
                     if p.cmplt(lo).any() || p.cmpgt(hi).any() {
+                        return;
+                    }
+                    if tv.iter().any(|&u| same_origin(m, u, v)) || !allowed(m.particle_body[v as usize], tb) {
                         return;
                     }
                     let w = closest_on_triangle(p, a, b, c);
@@ -222,7 +230,9 @@ impl<R: Real> ContactScratch<R> {
                 let e = e as usize;
                 let [a0, a1] = edges[e];
                 let (p, q) = (x(a0), x(a1));
-                let (lo, hi) = (p.min(q) - reach, p.max(q) + reach);
+                let [elo, ehi] = eboxes[e];
+                let (lo, hi) = (elo - reach, ehi + reach);
+                let (near_lo, near_hi) = (elo - radius, ehi + radius);
                 let eb = m.particle_body[a0 as usize];
                 if !active[eb as usize] || !worth(eb, lo, hi) {
                     continue;
@@ -233,12 +243,13 @@ impl<R: Real> ContactScratch<R> {
                     if f <= e {
                         return;
                     }
-                    let [b0, b1] = edges[f];
-                    let (r, s) = (x(b0), x(b1));
                     // Boxes first: most edges the query reaches are not within `radius`.
-                    if r.max(s).cmplt(p.min(q) - radius).any() || r.min(s).cmpgt(p.max(q) + radius).any() {
+                    let [flo, fhi] = eboxes[f];
+                    if fhi.cmplt(near_lo).any() || flo.cmpgt(near_hi).any() {
                         return;
                     }
+                    let [b0, b1] = edges[f];
+                    let (r, s) = (x(b0), x(b1));
                     if [a0, a1].iter().any(|&a| same_origin(m, a, b0) || same_origin(m, a, b1))
                         || !allowed(eb, m.particle_body[b0 as usize])
                     {
