@@ -11,9 +11,11 @@
 //! Each substep, after the integrator and the colliders (`solver/contact.rs`):
 //! 1. **Candidates** (broad phase): a hashed uniform grid ([`grid::HashGrid`], counting sort, as the GPU builds it)
 //!    of vertices for vertex–triangle pairs and of edge midpoints for edge–edge pairs gives every pair closer
-//!    than a search radius `R` at the step's start. The list is kept between steps (a Verlet list) while no
-//!    vertex has drifted far enough for a missed pair to come within reach: cost grows with the surface, not its
-//!    square, and a resting scene rebuilds rarely.
+//!    than a search radius `R` at the step's start, each element's partners in index order. The list is kept
+//!    between steps (a Verlet list) while no missed pair can have come within reach, judged per pair of bodies
+//!    from how far apart their boxes were and how far their points drifted since: cost grows with the surface,
+//!    not its square, and a resting scene rebuilds rarely. Since the pairs within reach are listed in index
+//!    order whenever the list was built, a kept list gives the same bits as one rebuilt at every step.
 //! 2. **Repulsion with friction**: for each pair within reach, an impulse along the normal between the closest
 //!    points makes the predicted gap at the end of the step at least `h` (a pair already inside `h` is eased out
 //!    by [`RELAX`] of its overlap per step instead, so resting contact does not jitter), applied to the four
