@@ -2,7 +2,14 @@
 //! and shows zero time and zero calls, which is how tests check that a scene pays only for what it uses.
 
 use std::fmt;
-use std::time::{Duration, Instant};
+use std::time::Duration;
+
+/// The clock of the stage timers: `std::time::Instant`, except on wasm32-unknown-unknown, where std has no clock
+/// (its `Instant::now` panics) and the browser's `performance.now()` stands in (the `web-time` crate).
+#[cfg(not(all(target_arch = "wasm32", target_os = "unknown")))]
+pub use std::time::Instant;
+#[cfg(all(target_arch = "wasm32", target_os = "unknown"))]
+pub use web_time::Instant;
 
 /// The named, ordered stages of a step.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]

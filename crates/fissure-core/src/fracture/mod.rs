@@ -79,10 +79,10 @@
 
 use crate::model::{Model, Opening, SpringKind, State};
 use crate::real::{Real, Vector3};
+use crate::timers::Instant;
 use crate::timers::{Stage, StageTimers};
 use glam::DVec3;
 use std::collections::BTreeSet;
-use std::time::Instant;
 
 mod core_mode;
 mod gas;

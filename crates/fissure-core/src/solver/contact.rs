@@ -337,6 +337,7 @@ impl Moves {
         Moves { d2: 0.0, r2: 0.0, lo: vec![DVec3::INFINITY; bodies], hi: vec![DVec3::NEG_INFINITY; bodies] }
     }
 
+    #[cfg(feature = "parallel")]
     fn merge(mut self, o: Moves) -> Moves {
         self.d2 = self.d2.max(o.d2);
         self.r2 = self.r2.max(o.r2);

@@ -26,10 +26,10 @@ use crate::model::{DampingModel, Model, State};
 use crate::par;
 use crate::real::{Real, Vector3};
 use crate::stability::StabilityBound;
+use crate::timers::Instant;
 use crate::timers::{Stage, StageTimers};
 use crate::topology::NONE;
 use std::sync::atomic::{AtomicBool, Ordering};
-use std::time::Instant;
 
 mod collide;
 mod contact;
