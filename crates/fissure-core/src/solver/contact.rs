@@ -231,12 +231,9 @@ impl<R: Real> ContactScratch<R> {
             let b = m.particle_body[edges[k][0] as usize];
             (active[b as usize] && worth(b, lo - pad, hi + pad)).then(|| 0.5 * (lo + hi))
         });
-        let tri_box = |t: u32| {
-            let [a, b, c] = m.tri_indices[t as usize].map(x);
-            (a.min(b).min(c) - radius, a.max(b).max(c) + radius)
-        };
-        let searched = |t: u32| {
-            let (lo, hi) = tri_box(t);
+        // A triangle's search box, and whether a build searches from it.
+        let tri_box = |[a, b, c]: [DVec3; 3]| (a.min(b).min(c) - radius, a.max(b).max(c) + radius);
+        let searched = |t: u32, (lo, hi): (DVec3, DVec3)| {
             let tb = m.tri_body[t as usize];
             active[tb as usize] && worth(tb, lo, hi)
         };
@@ -250,7 +247,8 @@ impl<R: Real> ContactScratch<R> {
             tmask = vec![false; m.tri_count()];
             self.tgrid.build(cell, el.tris.len(), |k| {
                 let t = el.tris[k];
-                searched(t).then(|| m.tri_indices[t as usize].map(x).iter().sum::<DVec3>() / 3.0)
+                let corners = m.tri_indices[t as usize].map(x);
+                searched(t, tri_box(corners)).then(|| corners.iter().sum::<DVec3>() / 3.0)
             });
             let reach = DVec3::splat(radius + l_max);
             for &h in hot {
@@ -274,11 +272,11 @@ impl<R: Real> ContactScratch<R> {
             for &t in tris {
                 let tv = m.tri_indices[t as usize];
                 let [a, b, c] = tv.map(x);
-                let (lo, hi) = tri_box(t);
-                let tb = m.tri_body[t as usize];
-                if !searched(t) {
+                let (lo, hi) = tri_box([a, b, c]);
+                if !searched(t, (lo, hi)) {
                     continue;
                 }
+                let tb = m.tri_body[t as usize];
                 let from = out.len();
                 grid.query(lo, hi, |k| {
                     let v = parts[k as usize];
