@@ -199,8 +199,8 @@ fn resolve(c: Collider, pose: Pose, x: vec3<f32>, v: vec3<f32>) -> Contact {
 fn collide(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>) {
     let i = flat_index(gid, nwg);
     if (i >= particle_count() || particles[i].inv_mass == 0.0) { return; }
-    var x = q_dst[i].xyz;
-    var v = qd_dst[i].xyz;
+    var x = q_dst(i);
+    var v = qd_dst(i);
     let nc = params.counts2.x;
     var touched = false;
     // A push out of one collider can land in another (a corner): sweep until clear, at most 3 times.
@@ -221,7 +221,6 @@ fn collide(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroup
         }
     }
     if (touched) {
-        q_dst[i] = vec4<f32>(x, 0.0);
-        qd_dst[i] = vec4<f32>(v, 0.0);
+        store(i, x, v);
     }
 }

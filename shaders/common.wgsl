@@ -1,5 +1,5 @@
-// fissure: shared declarations of every kernel. The Rust side prepends this file to each kernel file, so all
-// kernels see one bind group layout (group 0: the model and state, group 1: the clock of the current substep).
+// fissure: shared declarations of every kernel. The Rust side prepends this file to each kernel file (group 0: the
+// model and state, group 1: the clock of the current substep).
 // Mirrors: `crates/fissure-gpu/src/layout.rs` (same field order, `bytemuck::Pod`).
 //
 // Vectors are `vec4<f32>` (a `vec3` is 16-byte aligned in storage, so the fourth lane is free and used where noted).
@@ -40,6 +40,8 @@ struct Particle {
     handle: u32,
     // Core-mode load limit [N]; negative: unbreakable.
     load_limit: f32,
+    // Spring row start, spring row length, triangle row start, triangle row length (offsets into `adj`).
+    row: vec4<u32>,
 }
 
 // A spring's parameters; its ends are in `spring_ends` (split so the largest array stays under the 128 MiB a
@@ -83,40 +85,42 @@ struct Collider {
     _reserved: vec4<f32>,
 }
 
+// Group 0 holds every binding below, but each kernel's layout lists only those it uses (at most 8 storage
+// buffers, WebGPU's default per stage); `fissure_gpu::KERNEL_BINDINGS` is that table, checked against naga.
 @group(0) @binding(0) var<uniform> params: Params;
-@group(0) @binding(1) var<storage, read> q_src: array<vec4<f32>>;
-@group(0) @binding(2) var<storage, read> qd_src: array<vec4<f32>>;
-@group(0) @binding(3) var<storage, read_write> q_dst: array<vec4<f32>>;
-@group(0) @binding(4) var<storage, read_write> qd_dst: array<vec4<f32>>;
-@group(0) @binding(5) var<storage, read> particles: array<Particle>;
-// Per particle: spring row start, spring row length, triangle row start, triangle row length (offsets into `adj`).
-@group(0) @binding(6) var<storage, read> rows: array<vec4<u32>>;
-// Spring rows hold `spring << 1 | end`; triangle rows hold triangle ids.
-@group(0) @binding(7) var<storage, read> adj: array<u32>;
-@group(0) @binding(8) var<storage, read> springs: array<Spring>;
+// The state, interleaved per particle: position at 2i, velocity at 2i + 1 (w unused). Read through `q_src`,
+// `qd_src`, `q_dst`, `qd_dst`; written through `store`.
+@group(0) @binding(1) var<storage, read> state_src: array<vec4<f32>>;
+@group(0) @binding(2) var<storage, read_write> state_dst: array<vec4<f32>>;
+@group(0) @binding(3) var<storage, read> particles: array<Particle>;
+// Spring rows hold `spring << 1 | end`; triangle rows hold triangle ids (the rows: `Particle::row`).
+@group(0) @binding(4) var<storage, read> adj: array<u32>;
+@group(0) @binding(5) var<storage, read> springs: array<Spring>;
+@group(0) @binding(6) var<storage, read> spring_ends: array<vec2<u32>>;
 // a, b, c, body
-@group(0) @binding(9) var<storage, read> tris: array<vec4<u32>>;
+@group(0) @binding(7) var<storage, read> tris: array<vec4<u32>>;
 // xyz: (x1 - x0) x (x2 - x0); w: its 6V contribution about the body's anchor (gas bodies only)
-@group(0) @binding(10) var<storage, read_write> tri_cross: array<vec4<f32>>;
-// force on each corner (pressure + wind share) [N]
-@group(0) @binding(11) var<storage, read_write> tri_f: array<vec4<f32>>;
-@group(0) @binding(12) var<storage, read> bodies: array<Body>;
+@group(0) @binding(8) var<storage, read_write> tri_cross: array<vec4<f32>>;
+// force on each corner (pressure + wind share; pressure alone before the load check) [N]
+@group(0) @binding(9) var<storage, read_write> tri_f: array<vec4<f32>>;
+@group(0) @binding(10) var<storage, read> bodies: array<Body>;
 // per body: volume [m^3], net pressure [Pa], 0, 0
-@group(0) @binding(13) var<storage, read_write> body_state: array<vec4<f32>>;
+@group(0) @binding(11) var<storage, read_write> body_state: array<vec4<f32>>;
 // volume partial sums: row r (a workgroup of the triangle pass), column g (gas slot)
-@group(0) @binding(14) var<storage, read_write> partials: array<f32>;
-@group(0) @binding(15) var<storage, read> colliders: array<Collider>;
-@group(0) @binding(16) var<storage, read> sdf: array<f32>;
+@group(0) @binding(12) var<storage, read_write> partials: array<f32>;
+@group(0) @binding(13) var<storage, read> colliders: array<Collider>;
+@group(0) @binding(14) var<storage, read> sdf: array<f32>;
 // Openings: per opening (body, first slot, slot count, 0) as 4 words, then the loop vertices of every slot.
-@group(0) @binding(17) var<storage, read> openings: array<u32>;
-@group(0) @binding(18) var<storage, read> spring_ends: array<vec2<u32>>;
+@group(0) @binding(15) var<storage, read> openings: array<u32>;
 // Caps over openings, per particle: its row (start, length) at words 2i, 2i + 1; a row's items are pairs
 // (opening, position in its loop) from word 2 * (particles + start). One word when there are no caps.
-@group(0) @binding(19) var<storage, read> caps: array<u32>;
+@group(0) @binding(16) var<storage, read> caps: array<u32>;
 // Per opening: (centre xyz, 6 V of the cap), (Σ edge gradients xyz, slot count)
-@group(0) @binding(20) var<storage, read_write> cap_data: array<vec4<f32>>;
-// [spring count, vertex count, spring ids (capacity), vertex ids (capacity)]
-@group(0) @binding(21) var<storage, read_write> candidates: array<atomic<u32>>;
+@group(0) @binding(17) var<storage, read_write> cap_data: array<vec4<f32>>;
+// Per particle: the gas pressure's force through the caps over openings [N] (when the model has caps)
+@group(0) @binding(18) var<storage, read_write> cap_f: array<vec4<f32>>;
+// [spring count, vertex count, non-finite flag, 0, spring ids (capacity), vertex ids (capacity)]
+@group(0) @binding(19) var<storage, read_write> candidates: array<atomic<u32>>;
 
 @group(1) @binding(0) var<uniform> clock: Clock;
 
@@ -126,6 +130,15 @@ fn flat_index(gid: vec3<u32>, nwg: vec3<u32>) -> u32 {
 }
 
 fn particle_count() -> u32 { return params.counts.x; }
+
+fn q_src(i: u32) -> vec3<f32> { return state_src[2u * i].xyz; }
+fn qd_src(i: u32) -> vec3<f32> { return state_src[2u * i + 1u].xyz; }
+fn q_dst(i: u32) -> vec3<f32> { return state_dst[2u * i].xyz; }
+fn qd_dst(i: u32) -> vec3<f32> { return state_dst[2u * i + 1u].xyz; }
+fn store(i: u32, x: vec3<f32>, v: vec3<f32>) {
+    state_dst[2u * i] = vec4<f32>(x, 0.0);
+    state_dst[2u * i + 1u] = vec4<f32>(v, 0.0);
+}
 fn spring_count() -> u32 { return params.counts.y; }
 fn tri_count() -> u32 { return params.counts.z; }
 

@@ -19,37 +19,33 @@ fn strain_check(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_work
     let sp = springs[s];
     if (sp.strain_limit < 0.0) { return; }
     let ends = spring_ends[s];
-    let strain = (length(q_src[ends.y].xyz - q_src[ends.x].xyz) - sp.rest) / sp.rest;
+    let strain = (length(q_src(ends.y) - q_src(ends.x)) - sp.rest) / sp.rest;
     if (strain > sp.strain_limit) {
         append(0u, s);
     }
 }
 
 // The load: |net elastic force| on the particle (its springs' `ks (l - L0) d̂` and its share of the gas pressure).
-// The surface pass has run on the same state just before, so `tri_cross` and the pressures are current.
+// With gas, the `surface_pressure` pass has just run on the same state: `tri_f` holds each triangle's pressure
+// share per corner (0 on bodies without gas).
 @compute @workgroup_size(64)
 fn load_check(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>) {
     let i = flat_index(gid, nwg);
     if (i >= particle_count()) { return; }
     let p = particles[i];
     if (p.load_limit < 0.0 || p.inv_mass == 0.0) { return; }
-    let row = rows[i];
-    let xi = q_src[i].xyz;
+    let row = p.row;
     var f = vec3<f32>(0.0);
     for (var k = 0u; k < row.y; k++) {
         let e = adj[row.x + k];
         let s = springs[e >> 1u];
         let ends = spring_ends[e >> 1u];
-        let sf = spring_elastic_force(s, q_src[ends.y].xyz - q_src[ends.x].xyz);
+        let sf = spring_elastic_force(s, q_src(ends.y) - q_src(ends.x));
         f += select(-sf, sf, (e & 1u) == 0u);
     }
     if (params.counts2.y != 0u) {
         for (var k = 0u; k < row.w; k++) {
-            let t = adj[row.z + k];
-            let b = tris[t].w;
-            if (bodies[b].gas_slot != NONE) {
-                f += pressure_corner_force(tri_cross[t].xyz, body_state[b].y);
-            }
+            f += tri_f[adj[row.z + k]].xyz;
         }
     }
     if (length(f) > p.load_limit) {

@@ -41,12 +41,12 @@ fn surface_cross(
     var w = 0.0;
     if (t < tri_count()) {
         let tri = tris[t];
-        let x0 = q_src[tri.x].xyz;
-        let c = cross(q_src[tri.y].xyz - x0, q_src[tri.z].xyz - x0);
+        let x0 = q_src(tri.x);
+        let c = cross(q_src(tri.y) - x0, q_src(tri.z) - x0);
         let body = bodies[tri.w];
         slot = body.gas_slot;
         if (slot != NONE) {
-            w = dot(x0 - q_src[body.anchor].xyz, c);
+            w = dot(x0 - q_src(body.anchor), c);
             atomicMin(&slot_lo, slot);
             atomicMax(&slot_hi, slot);
         }
@@ -91,17 +91,17 @@ fn surface_caps(@builtin(global_invocation_id) gid: vec3<u32>) {
     let body = openings[h];
     let first = openings[h + 1u];
     let n = openings[h + 2u];
-    let anchor = q_src[bodies[body].anchor].xyz;
+    let anchor = q_src(bodies[body].anchor);
     var c = vec3<f32>(0.0);
     for (var k = 0u; k < n; k++) {
-        c += q_src[openings[first + k]].xyz;
+        c += q_src(openings[first + k]);
     }
     c = c * (1.0 / f32(n));
     var vol6 = 0.0;
     var cg = vec3<f32>(0.0);
     for (var k = 0u; k < n; k++) {
-        let xi = q_src[openings[first + k]].xyz;
-        let xj = q_src[openings[first + (k + 1u) % n]].xyz;
+        let xi = q_src(openings[first + k]);
+        let xj = q_src(openings[first + (k + 1u) % n]);
         vol6 += dot(xj - anchor, cross(xi - anchor, c - anchor));
         cg += cross(xi - xj, c - xj) * (1.0 / 6.0);
     }
@@ -189,10 +189,55 @@ fn surface_force(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_wor
     let rho = params.wind_u.w;
     if (rho > 0.0 && (body.drag != 0.0 || body.lift != 0.0)) {
         let third = 1.0 / 3.0;
-        let centroid = (q_src[tri.x].xyz + q_src[tri.y].xyz + q_src[tri.z].xyz) * third;
-        let vel = (qd_src[tri.x].xyz + qd_src[tri.y].xyz + qd_src[tri.z].xyz) * third;
+        let centroid = (q_src(tri.x) + q_src(tri.y) + q_src(tri.z)) * third;
+        let vel = (qd_src(tri.x) + qd_src(tri.y) + qd_src(tri.z)) * third;
         let air = wind_sample(centroid, clock.time);
         f += aero_force(c, air - vel, body.drag, body.lift, 0.5 * rho) * third;
     }
     tri_f[t] = vec4<f32>(f, 0.0);
+}
+
+// The pressure share alone (no wind), for the fracture load check after a step.
+@compute @workgroup_size(64)
+fn surface_pressure(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>) {
+    let t = flat_index(gid, nwg);
+    if (t >= tri_count()) { return; }
+    let b = tris[t].w;
+    let p = select(0.0, body_state[b].y, bodies[b].gas_slot != NONE);
+    tri_f[t] = vec4<f32>(pressure_corner_force(tri_cross[t].xyz, p), 0.0);
+}
+
+// Gradient share of a cap edge `i -> j` about the cap's centre `c` (each end gets it).
+fn cap_edge(xi: vec3<f32>, xj: vec3<f32>, c: vec3<f32>) -> vec3<f32> {
+    return cross(xi - xj, c - xj) * (1.0 / 6.0);
+}
+
+// Pass 4 (one invocation per particle; a gas body with openings only): the pressure's force through the caps
+// over the openings the particle borders, into `cap_f` (the integrators add it after the triangles' forces).
+@compute @workgroup_size(64)
+fn cap_force(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>) {
+    let i = flat_index(gid, nwg);
+    if (i >= particle_count()) { return; }
+    var f = vec3<f32>(0.0);
+    let start = caps[2u * i];
+    let len = caps[2u * i + 1u];
+    let base = 2u * particle_count();
+    let n_gas = params.counts2.y;
+    for (var k = 0u; k < len; k++) {
+        let item = vec2<u32>(caps[base + 2u * (start + k)], caps[base + 2u * (start + k) + 1u]);
+        let o = item.x;
+        let h = n_gas + 4u * o;
+        let body = openings[h];
+        let first = openings[h + 1u];
+        let n = openings[h + 2u];
+        let at = item.y;
+        let prev = openings[first + (at + n - 1u) % n];
+        let next = openings[first + (at + 1u) % n];
+        let c = cap_data[2u * o].xyz;
+        let cg = cap_data[2u * o + 1u].xyz;
+        let xi = q_src(i);
+        let g = cap_edge(q_src(prev), xi, c) + cap_edge(xi, q_src(next), c) + cg * (1.0 / f32(n));
+        f += g * body_state[body].y;
+    }
+    cap_f[i] = vec4<f32>(f, 0.0);
 }

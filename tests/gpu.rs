@@ -10,6 +10,9 @@
 //! - collisions in one step: 1e-5 m and 1e-4 m/s;
 //! - fracture candidates: the same sets exactly (the test keeps every strain or load at least 5 % from its limit).
 //!
+//! Every test runs on a device with WebGPU's default limits (`wgpu::Limits::default()`: 8 storage buffers per
+//! kernel, 128 MiB per binding), what a browser grants without asking, so the kernels are checked to fit in them.
+//!
 //! With `CI` set, a missing adapter fails these tests (CI installs lavapipe); elsewhere they are skipped loudly.
 
 use fissure::glam::{DVec3, Vec3};
@@ -18,7 +21,7 @@ use fissure::*;
 use fissure_gpu::{GpuConfig, GpuContext, GpuError, GpuSolver, MAX_GPU_HANDLES, adapter_required};
 
 fn gpu() -> Option<GpuContext> {
-    match GpuContext::new() {
+    match GpuContext::with_limits(fissure_gpu::wgpu::Limits::default()) {
         Ok(c) => {
             eprintln!("GPU tests on {}", c.describe());
             Some(c)
@@ -432,10 +435,14 @@ fn load_candidates_match_the_cpu() {
 #[test]
 fn only_the_kernels_a_model_needs_are_encoded() {
     let Some(ctx) = gpu() else { return };
+    // With `check_finite` (the default) a submission ends with one finite check of its last state.
     let run = |m: &Model<f32>, integrator| {
         let mut g = solver(&ctx, m, integrator);
         g.run(m, 1e-5, 2).unwrap();
-        g.passes().to_vec()
+        let mut p = g.passes().to_vec();
+        assert_eq!(p.pop(), Some("finite_check"));
+        assert!(!p.contains(&"finite_check"));
+        p
     };
     // Plain cloth: springs and gravity only.
     let m: Model<f32> = scenes::benchmark_cloth(8).unwrap().finalize().unwrap();
@@ -459,6 +466,33 @@ fn only_the_kernels_a_model_needs_are_encoded() {
     b.add_cloth_grid(8, 8, 0.05, |p| p, &opts).unwrap();
     let m: Model<f32> = b.finalize().unwrap();
     assert_eq!(run(&m, Integrator::SymplecticEuler), ["integrate_symplectic_euler", "strain_check"].repeat(2));
+    // A punctured gas body: the caps' geometry before the volumes, their forces after them.
+    let mut m: Model<f32> = scenes::ball_drop(&BallDrop::default()).unwrap().finalize().unwrap();
+    let mut s = m.state();
+    assert!(!Fracture::<f32>::default().break_core(&mut m, &mut s, 5).is_empty());
+    let p = run(&m, Integrator::SymplecticEuler);
+    let surface = ["surface_cross", "surface_caps", "surface_volume", "surface_force", "cap_force"];
+    assert_eq!(&p[..6], [&surface[..], &["integrate_symplectic_euler"]].concat());
+    // Breakable vertices of a gas body: after the step, the pressure shares alone for the load check.
+    let mut b = ModelBuilder::new();
+    let opts = SoftBodyOptions {
+        gas: Gas::Pressure(2000.0),
+        fracture: Some(Breakable { load_limit: 1e6, ..Default::default() }),
+        ..Default::default()
+    };
+    b.add_soft_body(&Mesh::icosphere(0.25, 1), &opts).unwrap();
+    let m: Model<f32> = b.finalize().unwrap();
+    let p = run(&m, Integrator::SymplecticEuler);
+    let step = ["surface_cross", "surface_volume", "surface_force", "integrate_symplectic_euler"];
+    let check = ["surface_cross", "surface_volume", "surface_pressure", "load_check"];
+    assert_eq!(p, [&step[..], &check[..]].concat().repeat(2));
+    // A state that blew up is reported (the finite check of the last state).
+    let m: Model<f32> = scenes::benchmark_cloth(8).unwrap().finalize().unwrap();
+    let mut g = solver(&ctx, &m, Integrator::SymplecticEuler);
+    let mut s = m.state();
+    s.particle_qd[3].x = f32::NAN;
+    g.upload_state(&s).unwrap();
+    assert!(matches!(g.run(&m, 1e-5, 5), Err(GpuError::NonFinite { .. })));
 }
 
 #[test]

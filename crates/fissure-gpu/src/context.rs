@@ -15,13 +15,21 @@ pub struct GpuContext {
 
 impl GpuContext {
     /// A device on the best adapter: a discrete or integrated GPU when there is one, otherwise a software device
-    /// (lavapipe). Requests the adapter's own limits (the kernels bind 21 storage buffers). The environment
-    /// variable `WGPU_BACKEND` (e.g. `vulkan`) restricts the backends tried.
+    /// (lavapipe). Requests the adapter's own limits (the largest buffers it allows; the kernels themselves need no
+    /// more than WebGPU's defaults). The environment variable `WGPU_BACKEND` (e.g. `vulkan`) restricts the
+    /// backends tried.
     pub fn new() -> Result<Self, GpuError> {
-        pollster::block_on(Self::new_async())
+        pollster::block_on(Self::new_async(None))
     }
 
-    async fn new_async() -> Result<Self, GpuError> {
+    /// As [`GpuContext::new`], with exactly `limits` (for example `wgpu::Limits::default()`, WebGPU's defaults:
+    /// what a browser grants without asking, which the kernels are kept within). Fails if the adapter cannot grant
+    /// them.
+    pub fn with_limits(limits: wgpu::Limits) -> Result<Self, GpuError> {
+        pollster::block_on(Self::new_async(Some(limits)))
+    }
+
+    async fn new_async(limits: Option<wgpu::Limits>) -> Result<Self, GpuError> {
         let mut desc = wgpu::InstanceDescriptor::new_without_display_handle_from_env();
         if std::env::var_os("WGPU_BACKEND").is_none() {
             desc.backends = wgpu::Backends::PRIMARY;
@@ -47,7 +55,7 @@ impl GpuContext {
             .request_device(&wgpu::DeviceDescriptor {
                 label: Some("fissure"),
                 required_features: wgpu::Features::empty(),
-                required_limits: adapter.limits(),
+                required_limits: limits.unwrap_or_else(|| adapter.limits()),
                 ..Default::default()
             })
             .await

@@ -50,6 +50,11 @@ pub struct Clock {
 /// bytes.
 pub const MAX_GPU_HANDLES: usize = 15;
 
+/// Bytes per particle in a state buffer: its position, then its velocity, each a `vec4<f32>` (w unused).
+/// Interleaved, so that a kernel binds one buffer per state (WebGPU's default allows 8 storage buffers per
+/// kernel); the renderer draws positions from it at this stride.
+pub const STATE_STRIDE: u64 = 32;
+
 /// Stride of the clock entries [bytes] (the largest `min_uniform_buffer_offset_alignment` allowed).
 pub const CLOCK_STRIDE: u64 = 256;
 
@@ -65,6 +70,9 @@ pub struct GpuParticle {
     pub handle: u32,
     /// Load limit \[N\], negative for none.
     pub load_limit: f32,
+    /// Adjacency header: spring row start and length, triangle row start (offset by `tri_offset` in `adj`) and
+    /// length.
+    pub row: [u32; 4],
 }
 
 /// `Spring` in WGSL (the ends are a separate array).
@@ -149,7 +157,6 @@ fn v4(v: glam::Vec3, w: f32) -> [f32; 4] {
 #[derive(Clone, Debug, Default)]
 pub(crate) struct Packed {
     pub particles: Vec<GpuParticle>,
-    pub rows: Vec<[u32; 4]>,
     pub adj: Vec<u32>,
     pub springs: Vec<GpuSpring>,
     pub spring_ends: Vec<[u32; 2]>,
@@ -164,21 +171,18 @@ pub(crate) struct Packed {
     pub tri_offset: usize,
 }
 
-/// Particle `i` as the kernels read it.
-pub(crate) fn pack_particle(m: &Model<f32>, i: usize) -> GpuParticle {
+/// Particle `i` as the kernels read it, with its adjacency header: its spring row, then its triangle row (offset
+/// by `tri_offset` in `adj`).
+pub(crate) fn pack_particle(m: &Model<f32>, i: usize, tri_offset: usize) -> GpuParticle {
     let lim = m.particle_load_limit[i];
+    let (sp, tr) = (&m.particle_springs, &m.particle_tris);
     GpuParticle {
         mass: m.particle_mass[i],
         inv_mass: m.particle_inv_mass[i],
         handle: if m.particle_handle[i] == u32::MAX { 0 } else { m.particle_handle[i] + 1 },
         load_limit: if lim.is_finite() { lim } else { -1.0 },
+        row: [sp.start[i], sp.len[i], tr.start[i] + tri_offset as u32, tr.len[i]],
     }
-}
-
-/// Particle `i`'s adjacency header: its spring row, then its triangle row (offset by `tri_offset` in `adj`).
-pub(crate) fn pack_row(m: &Model<f32>, i: usize, tri_offset: usize) -> [u32; 4] {
-    let (sp, tr) = (&m.particle_springs, &m.particle_tris);
-    [sp.start[i], sp.len[i], tr.start[i] + tri_offset as u32, tr.len[i]]
 }
 
 /// Spring `s` as the kernels read it (a broken spring, or one without a limit, has no strain limit: -1).
@@ -204,12 +208,11 @@ impl Packed {
     /// they are longer): keeping that offset fixed as the spring rows grow keeps a fracture's upload local.
     pub fn new(m: &Model<f32>, tri_offset: usize) -> Self {
         let mut p = Packed::default();
-        p.particles.extend((0..m.particle_count()).map(|i| pack_particle(m, i)));
-        p.any_load_limit = p.particles.iter().any(|q| q.load_limit >= 0.0);
         let (sp, tr) = (&m.particle_springs, &m.particle_tris);
         let off = tri_offset.max(sp.items.len());
         p.tri_offset = off;
-        p.rows.extend((0..m.particle_count()).map(|i| pack_row(m, i, off)));
+        p.particles.extend((0..m.particle_count()).map(|i| pack_particle(m, i, off)));
+        p.any_load_limit = p.particles.iter().any(|q| q.load_limit >= 0.0);
         p.adj.extend_from_slice(&sp.items);
         p.adj.resize(off, 0);
         p.adj.extend_from_slice(&tr.items);

@@ -36,7 +36,7 @@ pub mod sdf;
 mod solver;
 
 pub use context::{GpuContext, adapter_required};
-pub use layout::{GpuBody, GpuCollider, GpuParticle, GpuSpring, MAX_GPU_HANDLES, Params};
+pub use layout::{GpuBody, GpuCollider, GpuParticle, GpuSpring, MAX_GPU_HANDLES, Params, STATE_STRIDE};
 pub use sdf::SdfGrid;
 pub use solver::{Candidates, GpuConfig, GpuSolver, RunReport};
 pub use wgpu;
@@ -48,6 +48,35 @@ pub const SHADERS: [(&str, &str); 4] = [
     ("collide.wgsl", include_str!("../../../shaders/collide.wgsl")),
     ("fracture.wgsl", include_str!("../../../shaders/fracture.wgsl")),
 ];
+
+/// The storage buffers each kernel binds (bindings of group 0 in `common.wgsl`; every kernel also gets the uniform
+/// at binding 0 and the clock as group 1). Each kernel's bind group layout lists only these, so no kernel binds more
+/// than 8 storage buffers, WebGPU's default `maxStorageBuffersPerShaderStage` (what a browser grants without
+/// asking): one layout with all 19 would need a device that allows 19. `tests/wgsl.rs` checks the table against
+/// what naga finds each entry point using.
+pub const KERNEL_BINDINGS: [(&str, &[u32]); 14] = [
+    ("integrate_symplectic_euler", &FORCE_GATHER),
+    ("integrate_verlet_first", &FORCE_GATHER),
+    ("integrate_verlet_second", &FORCE_GATHER),
+    ("net_forces", &FORCE_GATHER),
+    ("finite_check", &[1, 19]),
+    ("surface_cross", &[1, 7, 8, 10, 12]),
+    ("surface_caps", &[1, 10, 15, 17]),
+    ("surface_volume", &[10, 11, 12, 15, 17]),
+    ("surface_force", &[1, 7, 8, 9, 10, 11]),
+    ("surface_pressure", &[7, 8, 9, 10, 11]),
+    ("cap_force", &[1, 11, 15, 16, 17, 18]),
+    ("collide", &[2, 3, 13, 14]),
+    ("strain_check", &[1, 5, 6, 19]),
+    ("load_check", &[1, 3, 4, 5, 6, 9, 19]),
+];
+
+/// What the per-particle force gather reads and writes: both states, particles, adjacency, springs, their ends,
+/// the triangles' corner forces and the caps' forces.
+const FORCE_GATHER: [u32; 8] = [1, 2, 3, 4, 5, 6, 9, 18];
+
+/// Storage buffers of `common.wgsl` written by some kernel (declared `read_write`); the rest are read-only.
+pub const READ_WRITE_BINDINGS: [u32; 8] = [2, 8, 9, 11, 12, 17, 18, 19];
 
 /// The declarations every kernel file shares (bindings, structs, helpers).
 pub const COMMON_WGSL: &str = include_str!("../../../shaders/common.wgsl");

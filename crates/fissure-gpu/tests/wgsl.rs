@@ -57,3 +57,45 @@ fn rust_mirrors_match_the_wgsl_struct_sizes() {
     assert_eq!(size("Body"), size_of::<fissure_gpu::GpuBody>());
     assert_eq!(size("Collider"), size_of::<fissure_gpu::GpuCollider>());
 }
+
+/// `KERNEL_BINDINGS` lists exactly the storage buffers each entry point uses (a kernel given a binding it does not
+/// declare would fail at pipeline creation; one given more than it uses would waste a slot of the 8), every entry
+/// point is listed, and none uses more than WebGPU's default 8 storage buffers per stage.
+#[test]
+fn each_kernel_binds_what_it_uses_and_at_most_eight_storage_buffers() {
+    let webgpu = fissure_gpu::wgpu::Limits::default().max_storage_buffers_per_shader_stage as usize;
+    assert_eq!(webgpu, 8);
+    let mut seen = Vec::new();
+    for (name, src) in SHADERS {
+        let source = shader_source(src);
+        let m = naga::front::wgsl::parse_str(&source).unwrap();
+        let info =
+            naga::valid::Validator::new(naga::valid::ValidationFlags::all(), Default::default()).validate(&m).unwrap();
+        for (i, ep) in m.entry_points.iter().enumerate() {
+            let used = info.get_entry_point(i);
+            let mut storage: Vec<u32> = m
+                .global_variables
+                .iter()
+                .filter(|(h, g)| !used[*h].is_empty() && matches!(g.space, naga::AddressSpace::Storage { .. }))
+                .map(|(_, g)| g.binding.as_ref().expect("storage is bound").binding)
+                .collect();
+            storage.sort_unstable();
+            let listed = fissure_gpu::KERNEL_BINDINGS
+                .iter()
+                .find(|(n, _)| *n == ep.name)
+                .unwrap_or_else(|| panic!("{name}: {} is not in KERNEL_BINDINGS", ep.name))
+                .1;
+            assert_eq!(listed, &storage[..], "{name}: {}", ep.name);
+            assert!(storage.len() <= webgpu, "{name}: {} binds {} storage buffers", ep.name, storage.len());
+            for b in &storage {
+                let written = m.global_variables.iter().any(|(_, g)| {
+                    g.binding.as_ref().is_some_and(|r| r.binding == *b)
+                        && matches!(g.space, naga::AddressSpace::Storage { access } if access.contains(naga::StorageAccess::STORE))
+                });
+                assert_eq!(written, fissure_gpu::READ_WRITE_BINDINGS.contains(b), "binding {b}");
+            }
+            seen.push(ep.name.clone());
+        }
+    }
+    assert_eq!(seen.len(), fissure_gpu::KERNEL_BINDINGS.len(), "KERNEL_BINDINGS lists a kernel no file has");
+}

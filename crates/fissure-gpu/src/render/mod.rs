@@ -33,7 +33,7 @@
 //! side faces the viewer; the inside of a torn body is tinted darker. Walls are drawn only when the camera is on
 //! their open side, so a wall never hides the room from a camera outside it.
 
-use crate::GpuError;
+use crate::{GpuError, STATE_STRIDE};
 use fissure_core::{Model, SpringKind, State};
 use glam::{Mat4, Vec3};
 use std::sync::mpsc;
@@ -106,7 +106,8 @@ impl Default for View {
 pub enum Positions<'a> {
     /// The last [`Renderer::upload_positions`].
     Uploaded,
-    /// A buffer of `vec4<f32>` per particle with `VERTEX` usage, e.g. [`crate::GpuSolver::position_buffer`].
+    /// A buffer with `VERTEX` usage holding each particle's position as a `vec4<f32>` at [`crate::STATE_STRIDE`]
+    /// bytes apart, e.g. [`crate::GpuSolver::position_buffer`].
     Buffer(&'a wgpu::Buffer),
 }
 
@@ -312,7 +313,7 @@ impl Renderer {
             &layout,
             "body_vs",
             "body_fs",
-            &[Some(per(vertex, 16, &q_attr)), Some(per(vertex, 4, &c_attr))],
+            &[Some(per(vertex, STATE_STRIDE, &q_attr)), Some(per(vertex, 4, &c_attr))],
             T::TriangleList,
             depth(true),
             None,
@@ -332,7 +333,7 @@ impl Renderer {
             &layout,
             "line_vs",
             "line_fs",
-            &[Some(per(vertex, 16, &q_attr))],
+            &[Some(per(vertex, STATE_STRIDE, &q_attr))],
             T::LineList,
             depth(false),
             None,
@@ -342,7 +343,7 @@ impl Renderer {
             &layout,
             "crack_vs",
             "line_fs",
-            &[Some(per(vertex, 16, &q_attr))],
+            &[Some(per(vertex, STATE_STRIDE, &q_attr))],
             T::LineList,
             depth(false),
             None,
@@ -352,7 +353,7 @@ impl Renderer {
             &layout,
             "point_vs",
             "line_fs",
-            &[Some(per(instance, 16, &q_attr)), Some(per(instance, 4, &c_attr))],
+            &[Some(per(instance, STATE_STRIDE, &q_attr)), Some(per(instance, 4, &c_attr))],
             T::TriangleList,
             depth(true),
             None,
@@ -514,7 +515,8 @@ impl Renderer {
 
     /// Uploads CPU positions for [`Positions::Uploaded`].
     pub fn upload_positions(&mut self, state: &State<f32>) {
-        let q: Vec<[f32; 4]> = state.particle_q.iter().map(|v| [v.x, v.y, v.z, 1.0]).collect();
+        // At the GPU state's stride, so one pipeline draws either (the second `vec4` is unused here).
+        let q: Vec<[f32; 8]> = state.particle_q.iter().map(|v| [v.x, v.y, v.z, 1.0, 0.0, 0.0, 0.0, 0.0]).collect();
         self.positions.write(&self.device, &self.queue, bytemuck::cast_slice(&q));
     }
 

@@ -1,5 +1,5 @@
-//! Bind groups: the model and state buffers as group 0 (two, one per state buffer, for ping-pong), the clock of
-//! the current substep as group 1; rebuilt when a buffer is reallocated.
+//! Bind groups: per kernel, the model and state buffers it uses as group 0 (two, one per state buffer, for
+//! ping-pong), the clock of the current substep as group 1; rebuilt when a buffer is reallocated.
 
 use super::*;
 
@@ -32,78 +32,57 @@ impl GpuSolver {
         })
     }
 
-    #[allow(clippy::too_many_arguments)]
-    pub(super) fn binds(
-        device: &wgpu::Device,
-        layout: &wgpu::BindGroupLayout,
-        params: &wgpu::Buffer,
-        q: &[wgpu::Buffer; 2],
-        qd: &[wgpu::Buffer; 2],
-        m: [&wgpu::Buffer; 11],
-        s: &Scratch,
-        candidates: &wgpu::Buffer,
-    ) -> [wgpu::BindGroup; 2] {
-        let [particles, rows, adj, springs, tris, bodies, colliders, sdf, openings, spring_ends, caps] = m;
-        [0, 1].map(|cur| {
-            let other = 1 - cur;
-            let list: [(u32, &wgpu::Buffer); 22] = [
-                (0, params),
-                (1, &q[cur]),
-                (2, &qd[cur]),
-                (3, &q[other]),
-                (4, &qd[other]),
-                (5, particles),
-                (6, rows),
-                (7, adj),
-                (8, springs),
-                (9, tris),
-                (10, &s.tri_cross),
-                (11, &s.tri_f),
-                (12, bodies),
-                (13, &s.body_state),
-                (14, &s.partials),
-                (15, colliders),
-                (16, sdf),
-                (17, openings),
-                (18, spring_ends),
-                (19, caps),
-                (20, &s.cap_data),
-                (21, candidates),
-            ];
-            let entries: Vec<_> = list
-                .iter()
-                .map(|&(binding, b)| wgpu::BindGroupEntry { binding, resource: b.as_entire_binding() })
-                .collect();
-            device.create_bind_group(&wgpu::BindGroupDescriptor {
-                label: Some(if cur == 0 { "state 0 -> 1" } else { "state 1 -> 0" }),
-                layout,
-                entries: &entries,
-            })
-        })
+    /// The buffer at `binding` of group 0 (`common.wgsl`) for a kernel reading state `cur`.
+    fn binding(&self, binding: u32, cur: usize) -> &wgpu::Buffer {
+        let s = &self.scratch;
+        match binding {
+            0 => &self.params,
+            1 => &self.state[cur],
+            2 => &self.state[1 - cur],
+            3 => &self.particles.buffer,
+            4 => &self.adj.buffer,
+            5 => &self.springs.buffer,
+            6 => &self.spring_ends.buffer,
+            7 => &self.tris.buffer,
+            8 => &s.tri_cross,
+            9 => &s.tri_f,
+            10 => &self.bodies.buffer,
+            11 => &s.body_state,
+            12 => &s.partials,
+            13 => &self.colliders.buffer,
+            14 => &self.sdf.buffer,
+            15 => &self.openings.buffer,
+            16 => &self.caps.buffer,
+            17 => &s.cap_data,
+            18 => &s.cap_f,
+            19 => &self.candidates,
+            _ => unreachable!("common.wgsl has no binding {binding}"),
+        }
     }
 
+    /// Makes every kernel's two bind groups (one per state buffer it reads) anew: at creation and after a buffer
+    /// was reallocated.
     pub(super) fn rebind(&mut self) {
-        self.bind = Self::binds(
-            &self.device,
-            &self.layout0,
-            &self.params,
-            &self.q,
-            &self.qd,
-            [
-                &self.particles.buffer,
-                &self.rows.buffer,
-                &self.adj.buffer,
-                &self.springs.buffer,
-                &self.tris.buffer,
-                &self.bodies.buffer,
-                &self.colliders.buffer,
-                &self.sdf.buffer,
-                &self.openings.buffer,
-                &self.spring_ends.buffer,
-                &self.caps.buffer,
-            ],
-            &self.scratch,
-            &self.candidates,
-        );
+        let bind = KERNEL_BINDINGS
+            .iter()
+            .zip(&self.kernels.layouts)
+            .map(|((name, bindings), layout)| {
+                [0, 1].map(|cur| {
+                    let entries: Vec<_> = std::iter::once(&0)
+                        .chain(bindings.iter())
+                        .map(|&b| wgpu::BindGroupEntry {
+                            binding: b,
+                            resource: self.binding(b, cur).as_entire_binding(),
+                        })
+                        .collect();
+                    self.device.create_bind_group(&wgpu::BindGroupDescriptor {
+                        label: Some(name),
+                        layout,
+                        entries: &entries,
+                    })
+                })
+            })
+            .collect();
+        self.bind = bind;
     }
 }

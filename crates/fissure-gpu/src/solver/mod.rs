@@ -7,13 +7,17 @@
 //! | kernel | when |
 //! |---|---|
 //! | `surface_cross`, `surface_force` | gas or wind |
-//! | `surface_caps` | a gas body with openings |
+//! | `surface_caps`, `cap_force` | a gas body with openings |
 //! | `surface_volume` | gas |
 //! | `integrate_symplectic_euler` or `integrate_verlet_first` + `integrate_verlet_second` | always |
 //! | `collide` | colliders |
-//! | `strain_check` / `load_check` | breakable springs / vertices |
+//! | `strain_check` / `surface_pressure` + `load_check` | breakable springs / vertices (the pressure pass: gas) |
+//! | `finite_check` | once per submission, with `check_finite` |
 //!
 //! [`GpuSolver::passes`] lists what the last submission encoded, in order.
+//!
+//! Each kernel has its own bind group layout with only the buffers it uses ([`crate::KERNEL_BINDINGS`], at most 8
+//! storage buffers: WebGPU's default limit), so the solver runs on any WebGPU device without asking for more.
 
 use std::sync::mpsc;
 use std::time::Instant;
@@ -21,14 +25,12 @@ use std::time::Instant;
 use fissure_core::{Integrator, Model, StageTimers, State};
 use glam::Vec3;
 
-use crate::layout::{self, CLOCK_STRIDE, Clock, GpuCollider, MAX_GPU_HANDLES, Mirror, Packed, Params};
-use crate::{GpuError, SHADERS, shader_source};
+use crate::layout::{self, CLOCK_STRIDE, Clock, GpuCollider, MAX_GPU_HANDLES, Mirror, Packed, Params, STATE_STRIDE};
+use crate::{GpuError, KERNEL_BINDINGS, READ_WRITE_BINDINGS, SHADERS, shader_source};
 
 mod bind;
 mod transfer;
 
-/// Storage buffers one kernel binds (bindings 1 to 21 of `common.wgsl`).
-const STORAGE_BINDINGS: u32 = 21;
 /// Workgroup size of every kernel.
 const WG: u32 = 64;
 /// Largest workgroup count along one dispatch dimension (WebGPU's guaranteed minimum).
@@ -81,14 +83,15 @@ pub struct Candidates {
     pub overflow: bool,
 }
 
-struct Pipelines {
-    by_name: Vec<(&'static str, wgpu::ComputePipeline)>,
+/// The kernels, each with its bind group layout, in the order of [`KERNEL_BINDINGS`].
+struct Kernels {
+    pipelines: Vec<wgpu::ComputePipeline>,
+    layouts: Vec<wgpu::BindGroupLayout>,
 }
 
-impl Pipelines {
-    fn get(&self, name: &str) -> &wgpu::ComputePipeline {
-        &self.by_name.iter().find(|(n, _)| *n == name).expect("every kernel is created with the solver").1
-    }
+/// The index of kernel `name` in [`KERNEL_BINDINGS`].
+fn kernel(name: &str) -> usize {
+    KERNEL_BINDINGS.iter().position(|(n, _)| *n == name).expect("every kernel is in KERNEL_BINDINGS")
 }
 
 /// Buffers that depend on the model's size (everything but the state and the mirrors).
@@ -98,8 +101,9 @@ struct Scratch {
     body_state: wgpu::Buffer,
     partials: wgpu::Buffer,
     cap_data: wgpu::Buffer,
-    /// (triangles, bodies, partial floats, openings) they hold.
-    sized: [usize; 4],
+    cap_f: wgpu::Buffer,
+    /// (triangles, bodies, partial floats, openings, particles with cap forces) they hold.
+    sized: [usize; 5],
 }
 
 /// The wgpu solver (f32). See the module docs.
@@ -108,19 +112,17 @@ pub struct GpuSolver {
     queue: wgpu::Queue,
     /// Settings (the integrator is fixed at creation).
     config: GpuConfig,
-    pipelines: Pipelines,
-    layout0: wgpu::BindGroupLayout,
+    kernels: Kernels,
     layout1: wgpu::BindGroupLayout,
     clock_bind: wgpu::BindGroup,
     clock: wgpu::Buffer,
     clock_capacity: usize,
     params: wgpu::Buffer,
     params_host: Params,
-    q: [wgpu::Buffer; 2],
-    qd: [wgpu::Buffer; 2],
+    /// The two states (positions and velocities interleaved per particle, [`STATE_STRIDE`] bytes each).
+    state: [wgpu::Buffer; 2],
     state_capacity: usize,
     particles: Mirror<layout::GpuParticle>,
-    rows: Mirror<[u32; 4]>,
     adj: Mirror<u32>,
     springs: Mirror<layout::GpuSpring>,
     tris: Mirror<[u32; 4]>,
@@ -133,7 +135,8 @@ pub struct GpuSolver {
     scratch: Scratch,
     candidates: wgpu::Buffer,
     status: wgpu::Buffer,
-    bind: [wgpu::BindGroup; 2],
+    /// Per kernel (in [`KERNEL_BINDINGS`] order), its bind group reading state 0 and the one reading state 1.
+    bind: Vec<[wgpu::BindGroup; 2]>,
     /// Which of the two state buffers holds the current state.
     cur: usize,
     packed: Packed,
@@ -160,9 +163,6 @@ fn buffer_entry(binding: u32, ty: wgpu::BufferBindingType, dynamic: bool, min: u
     }
 }
 
-/// Read-write bindings of `common.wgsl`; every other storage binding is read-only.
-const READ_WRITE: [u32; 8] = [3, 4, 10, 11, 13, 14, 20, 21];
-
 /// Workgroups for `n` invocations as a 2-D grid (the kernels flatten it with `flat_index`).
 fn groups(n: usize) -> (u32, u32) {
     let g = (n as u32).div_ceil(WG).max(1);
@@ -170,13 +170,15 @@ fn groups(n: usize) -> (u32, u32) {
     (x, g.div_ceil(x))
 }
 
-/// Entries the scratch buffers need: triangles (with a surface pass), bodies, volume partials, capped openings.
-fn scratch_sizes(m: &Model<f32>, p: &Packed) -> [usize; 4] {
+/// Entries the scratch buffers need: triangles (with a surface pass), bodies, volume partials, capped openings,
+/// particles (with caps).
+fn scratch_sizes(m: &Model<f32>, p: &Packed) -> [usize; 5] {
     let surface = m.has_pressure() || m.has_wind();
     let nt = if surface { m.tri_count() } else { 0 };
     let (gx, gy) = groups(m.tri_count());
     let np = if p.n_gas > 0 { (gx * gy * p.n_gas) as usize } else { 0 };
-    [nt, m.body_count(), np, p.n_caps as usize]
+    let caps = p.n_caps as usize;
+    [nt, m.body_count(), np, caps, if caps > 0 { m.particle_count() } else { 0 }]
 }
 
 /// Positions and velocities: storage for the kernels, copies both ways, and a vertex buffer for the renderer
@@ -195,6 +197,7 @@ fn scratch(device: &wgpu::Device, m: &Model<f32>, p: &Packed) -> Scratch {
         body_state: layout::create(device, "body_state", sized[1] * 16, rw),
         partials: layout::create(device, "partials", sized[2] * 4, rw),
         cap_data: layout::create(device, "cap_data", sized[3] * 32, rw),
+        cap_f: layout::create(device, "cap_f", sized[4] * 16, rw),
         sized,
     }
 }
@@ -221,48 +224,56 @@ impl GpuSolver {
             return Err(GpuError::UnsupportedHandles);
         }
         let limits = device.limits();
-        if limits.max_storage_buffers_per_shader_stage < STORAGE_BINDINGS {
+        let most = KERNEL_BINDINGS.iter().map(|(_, b)| b.len() as u32).max().unwrap_or(0);
+        if limits.max_storage_buffers_per_shader_stage < most {
             return Err(GpuError::Limit {
                 limit: "max_storage_buffers_per_shader_stage",
                 have: limits.max_storage_buffers_per_shader_stage as u64,
-                need: STORAGE_BINDINGS as u64,
+                need: most as u64,
             });
         }
         let uniform = wgpu::BufferBindingType::Uniform;
-        let mut entries = vec![buffer_entry(0, uniform, false, size_of::<Params>() as u64)];
-        entries.extend((1..=STORAGE_BINDINGS).map(|b| {
-            buffer_entry(b, wgpu::BufferBindingType::Storage { read_only: !READ_WRITE.contains(&b) }, false, 0)
-        }));
-        let layout0 = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-            label: Some("fissure model+state"),
-            entries: &entries,
-        });
         let layout1 = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("fissure clock"),
             entries: &[buffer_entry(0, uniform, true, size_of::<Clock>() as u64)],
         });
-        let pl = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-            label: Some("fissure"),
-            bind_group_layouts: &[Some(&layout0), Some(&layout1)],
-            immediate_size: 0,
-        });
-        let mut by_name = Vec::new();
-        for (file, src) in SHADERS {
-            let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
-                label: Some(file),
-                source: wgpu::ShaderSource::Wgsl(shader_source(src).into()),
-            });
-            for entry in entry_points(src) {
-                let p = device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-                    label: Some(entry),
-                    layout: Some(&pl),
-                    module: &module,
-                    entry_point: Some(entry),
-                    compilation_options: Default::default(),
-                    cache: None,
+        let modules: Vec<_> = SHADERS
+            .iter()
+            .map(|(file, src)| {
+                let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
+                    label: Some(file),
+                    source: wgpu::ShaderSource::Wgsl(shader_source(src).into()),
                 });
-                by_name.push((entry, p));
-            }
+                (entry_points(src), module)
+            })
+            .collect();
+        let mut kernels = Kernels { pipelines: Vec::new(), layouts: Vec::new() };
+        for (name, bindings) in KERNEL_BINDINGS {
+            let mut entries = vec![buffer_entry(0, uniform, false, size_of::<Params>() as u64)];
+            entries.extend(bindings.iter().map(|&b| {
+                let read_only = !READ_WRITE_BINDINGS.contains(&b);
+                buffer_entry(b, wgpu::BufferBindingType::Storage { read_only }, false, 0)
+            }));
+            let layout0 = device
+                .create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor { label: Some(name), entries: &entries });
+            let pl = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+                label: Some(name),
+                bind_group_layouts: &[Some(&layout0), Some(&layout1)],
+                immediate_size: 0,
+            });
+            let (_, module) = modules
+                .iter()
+                .find(|(entries, _)| entries.contains(&name))
+                .expect("every kernel of KERNEL_BINDINGS is in a shader file");
+            kernels.pipelines.push(device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+                label: Some(name),
+                layout: Some(&pl),
+                module,
+                entry_point: Some(name),
+                compilation_options: Default::default(),
+                cache: None,
+            }));
+            kernels.layouts.push(layout0);
         }
         // Models that can change get room to grow; the others exact buffers.
         let slack = model.has_fracture() || !model.openings.is_empty();
@@ -284,7 +295,6 @@ impl GpuSolver {
         }
         let mut sdf_host = Vec::new();
         let colliders_host = layout::pack_colliders(&model.colliders, config.sdf_cells, &mut sdf_host)?;
-        let rows = Mirror::new(&device, &queue, "rows", &packed.rows, slack);
         let particles = Mirror::new(&device, &queue, "particles", &packed.particles, slack);
         let adj = Mirror::new(&device, &queue, "adj", &packed.adj, slack);
         let springs = Mirror::new(&device, &queue, "springs", &packed.springs, slack);
@@ -297,8 +307,8 @@ impl GpuSolver {
         let sdf = Mirror::new(&device, &queue, "sdf", &sdf_host, slack);
         let n = model.particle_count();
         let state_capacity = n + if slack { n / 4 } else { 0 };
-        let mkq = |l| layout::create(&device, l, state_capacity * 16, STATE_USAGE);
-        let (q, qd) = ([mkq("q0"), mkq("q1")], [mkq("qd0"), mkq("qd1")]);
+        let mk = |l| layout::create(&device, l, state_capacity * STATE_STRIDE as usize, STATE_USAGE);
+        let state = [mk("state 0"), mk("state 1")];
         let params = layout::create(
             &device,
             "params",
@@ -313,45 +323,20 @@ impl GpuSolver {
         let clock = Self::clock_buffer(&device, clock_capacity);
         let clock_bind = Self::clock_bind(&device, &layout1, &clock);
         let scratch = scratch(&device, model, &packed);
-        let bind = Self::binds(
-            &device,
-            &layout0,
-            &params,
-            &q,
-            &qd,
-            [
-                &particles.buffer,
-                &rows.buffer,
-                &adj.buffer,
-                &springs.buffer,
-                &tris.buffer,
-                &bodies.buffer,
-                &colliders.buffer,
-                &sdf.buffer,
-                &openings.buffer,
-                &spring_ends.buffer,
-                &caps.buffer,
-            ],
-            &scratch,
-            &candidates,
-        );
         let mut s = GpuSolver {
             device,
             queue,
             config,
-            pipelines: Pipelines { by_name },
-            layout0,
+            kernels,
             layout1,
             clock_bind,
             clock,
             clock_capacity,
             params,
             params_host: Params::default(),
-            q,
-            qd,
+            state,
             state_capacity,
             particles,
-            rows,
             adj,
             springs,
             tris,
@@ -364,7 +349,7 @@ impl GpuSolver {
             scratch,
             candidates,
             status,
-            bind,
+            bind: Vec::new(),
             cur: 0,
             packed,
             time: 0.0,
@@ -376,6 +361,7 @@ impl GpuSolver {
             state_valid: 0,
             timers: StageTimers::default(),
         };
+        s.rebind();
         s.write_params(model);
         s.upload_state(&model.state())?;
         Ok(s)
@@ -402,9 +388,10 @@ impl GpuSolver {
         (&self.device, &self.queue)
     }
 
-    /// The buffer holding the current positions (`vec4<f32>` per particle, w unused).
+    /// The buffer holding the current state: per particle, its position then its velocity as `vec4<f32>` (w
+    /// unused), [`crate::STATE_STRIDE`] bytes apart. The renderer draws positions from it in place.
     pub fn position_buffer(&self) -> &wgpu::Buffer {
-        &self.q[self.cur]
+        &self.state[self.cur]
     }
 
     /// Simulation time of the GPU state \[s\].
@@ -466,15 +453,17 @@ impl GpuSolver {
         clock: usize,
         n: (u32, u32),
     ) {
-        pass.set_pipeline(self.pipelines.get(name));
-        pass.set_bind_group(0, &self.bind[cur], &[]);
+        let k = kernel(name);
+        pass.set_pipeline(&self.kernels.pipelines[k]);
+        pass.set_bind_group(0, &self.bind[k][cur], &[]);
         pass.set_bind_group(1, &self.clock_bind, &[(clock as u64 * CLOCK_STRIDE) as u32]);
         pass.dispatch_workgroups(n.0, n.1, 1);
         self.passes.push(name);
     }
 
     /// Encodes the surface pass on state buffer `cur` (with the clock entry `clock`): crosses and volume
-    /// partials, caps, volumes and pressures, and (`forces`) the per-corner forces.
+    /// partials, caps, volumes and pressures, then the per-corner forces and the caps' forces (`forces`), or the
+    /// per-corner pressure shares alone (for the load check).
     fn encode_surface(
         &mut self,
         pass: &mut wgpu::ComputePass<'_>,
@@ -491,8 +480,13 @@ impl GpuSolver {
         if self.packed.n_gas > 0 {
             self.dispatch(pass, "surface_volume", cur, clock, (self.packed.n_gas, 1));
         }
-        if forces {
-            self.dispatch(pass, "surface_force", cur, clock, nt);
+        if !forces {
+            self.dispatch(pass, "surface_pressure", cur, clock, nt);
+            return;
+        }
+        self.dispatch(pass, "surface_force", cur, clock, nt);
+        if self.packed.n_caps > 0 {
+            self.dispatch(pass, "cap_force", cur, clock, groups(self.particle_count()));
         }
     }
 
@@ -571,6 +565,10 @@ impl GpuSolver {
             for k in 0..steps {
                 self.encode_step(&mut pass, m, k);
             }
+            if self.config.check_finite {
+                let last = 2 * steps.max(1) - 1;
+                self.dispatch(&mut pass, "finite_check", self.cur, last, groups(self.particle_count()));
+            }
         }
         let read = self.config.check_finite || m.has_fracture();
         if read {
@@ -631,8 +629,8 @@ impl GpuSolver {
             self.dispatch(&mut pass, "net_forces", cur, 0, groups(self.particle_count()));
         }
         self.queue.submit([enc.finish()]);
-        let f = self.read_vec4(&self.q[1 - self.cur], self.particle_count())?;
-        Ok(f.iter().map(|v| Vec3::new(v[0], v[1], v[2])).collect())
+        let f = self.read_vec4(&self.state[1 - self.cur], 2 * self.particle_count())?;
+        Ok(f.iter().step_by(2).map(|v| Vec3::new(v[0], v[1], v[2])).collect())
     }
 
     /// Volume \[m^3\] and net pressure \[Pa\] of each body as of the last surface pass (zeros for bodies without gas).

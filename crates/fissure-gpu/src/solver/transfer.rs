@@ -5,6 +5,11 @@ use super::*;
 use crate::layout::{GpuParticle, GpuSpring};
 use fissure_core::{Solver, StepError, TopologyDelta};
 
+/// Positions and velocities as the state buffers hold them: `[x, y, z, 0]` of the position, then of the velocity.
+fn interleave(q: &[Vec3], qd: &[Vec3]) -> Vec<[f32; 4]> {
+    q.iter().zip(qd).flat_map(|(x, v)| [[x.x, x.y, x.z, 0.0], [v.x, v.y, v.z, 0.0]]).collect()
+}
+
 impl GpuSolver {
     /// Writes `state` (positions, velocities, time) to the GPU.
     pub fn upload_state(&mut self, state: &State<f32>) -> Result<(), GpuError> {
@@ -12,9 +17,8 @@ impl GpuSolver {
         if state.particle_q.len() != n || state.particle_qd.len() != n {
             return Err(GpuError::StateMismatch { state: state.particle_q.len(), model: n });
         }
-        let pack = |v: &[Vec3]| v.iter().map(|x| [x.x, x.y, x.z, 0.0]).collect::<Vec<[f32; 4]>>();
-        self.queue.write_buffer(&self.q[self.cur], 0, bytemuck::cast_slice(&pack(&state.particle_q)));
-        self.queue.write_buffer(&self.qd[self.cur], 0, bytemuck::cast_slice(&pack(&state.particle_qd)));
+        let packed = interleave(&state.particle_q, &state.particle_qd);
+        self.queue.write_buffer(&self.state[self.cur], 0, bytemuck::cast_slice(&packed));
         self.time = state.time;
         self.state_stale = false;
         self.state_valid = n;
@@ -32,14 +36,12 @@ impl GpuSolver {
         if from == 0 {
             let before = self.last_upload;
             self.upload_state(state)?;
-            self.last_upload = before + n * 32;
+            self.last_upload = before + n * STATE_STRIDE as usize;
             return Ok(());
         }
-        let pack = |v: &[Vec3]| v.iter().map(|x| [x.x, x.y, x.z, 0.0]).collect::<Vec<[f32; 4]>>();
-        let (q, qd) = (pack(&state.particle_q[from..]), pack(&state.particle_qd[from..]));
-        self.queue.write_buffer(&self.q[self.cur], (from * 16) as u64, bytemuck::cast_slice(&q));
-        self.queue.write_buffer(&self.qd[self.cur], (from * 16) as u64, bytemuck::cast_slice(&qd));
-        self.last_upload += (n - from) * 32;
+        let packed = interleave(&state.particle_q[from..], &state.particle_qd[from..]);
+        self.queue.write_buffer(&self.state[self.cur], from as u64 * STATE_STRIDE, bytemuck::cast_slice(&packed));
+        self.last_upload += (n - from) * STATE_STRIDE as usize;
         self.state_stale = false;
         self.state_valid = n;
         Ok(())
@@ -48,11 +50,12 @@ impl GpuSolver {
     /// Reads the current positions, velocities and time into `state` (a synchronous read-back).
     pub fn read_state(&mut self, state: &mut State<f32>) -> Result<(), GpuError> {
         let n = self.particle_count();
-        let (q, qd) = (self.read_vec4(&self.q[self.cur], n)?, self.read_vec4(&self.qd[self.cur], n)?);
+        let both = self.read_vec4(&self.state[self.cur], 2 * n)?;
+        let v3 = |v: &[f32; 4]| Vec3::new(v[0], v[1], v[2]);
         state.particle_q.clear();
-        state.particle_q.extend(q.iter().map(|v| Vec3::new(v[0], v[1], v[2])));
+        state.particle_q.extend(both.iter().step_by(2).map(v3));
         state.particle_qd.clear();
-        state.particle_qd.extend(qd.iter().map(|v| Vec3::new(v[0], v[1], v[2])));
+        state.particle_qd.extend(both.iter().skip(1).step_by(2).map(v3));
         state.time = self.time;
         Ok(())
     }
@@ -92,7 +95,7 @@ impl GpuSolver {
     /// blocks per array). If particles were added, the state must be uploaded next ([`GpuSolver::upload_state`]).
     pub fn sync_model(&mut self, m: &Model<f32>) {
         let p = Packed::new(m, self.packed.tri_offset);
-        self.last_repacked = p.particles.len() + p.rows.len() + p.adj.len() + p.springs.len() + p.tris.len();
+        self.last_repacked = 2 * p.particles.len() + p.adj.len() + p.springs.len() + p.tris.len();
         let (d, q) = (&self.device, &self.queue);
         let mut realloc = false;
         let mut bytes = 0;
@@ -101,7 +104,6 @@ impl GpuSolver {
             bytes += b;
         };
         add(self.particles.sync(d, q, &p.particles));
-        add(self.rows.sync(d, q, &p.rows));
         add(self.adj.sync(d, q, &p.adj));
         add(self.springs.sync(d, q, &p.springs));
         add(self.tris.sync(d, q, &p.tris));
@@ -146,10 +148,8 @@ impl GpuSolver {
         pidx.sort_unstable();
         pidx.dedup();
         p.particles.resize(n, GpuParticle::default());
-        p.rows.resize(n, [0; 4]);
         for &i in &pidx {
-            p.particles[i as usize] = layout::pack_particle(m, i as usize);
-            p.rows[i as usize] = layout::pack_row(m, i as usize, off);
+            p.particles[i as usize] = layout::pack_particle(m, i as usize, off);
             p.any_load_limit |= p.particles[i as usize].load_limit >= 0.0;
         }
         // The rows' items: spring rows at their start, triangle rows at `off` + their start.
@@ -194,7 +194,6 @@ impl GpuSolver {
             bytes += b;
         };
         add(self.particles.write_items(d, q, &p.particles, &pidx));
-        add(self.rows.write_items(d, q, &p.rows, &pidx));
         add(self.adj.write_items(d, q, &p.adj, &aidx));
         add(self.springs.write_items(d, q, &p.springs, &sidx));
         add(self.spring_ends.write_items(d, q, &p.spring_ends, &sidx));
@@ -211,7 +210,7 @@ impl GpuSolver {
     /// for the new sizes, the uniform, new bind groups if any buffer was reallocated, and the upload count.
     fn finish_sync(&mut self, m: &Model<f32>, old: usize, mut realloc: bool, mut bytes: usize) {
         realloc |= self.grow_state(old, m.particle_count());
-        if (0..4).any(|k| scratch_sizes(m, &self.packed)[k] > self.scratch.sized[k]) {
+        if (0..5).any(|k| scratch_sizes(m, &self.packed)[k] > self.scratch.sized[k]) {
             self.scratch = scratch(&self.device, m, &self.packed);
             realloc = true;
         }
@@ -235,9 +234,8 @@ impl GpuSolver {
             return false;
         }
         self.state_capacity = n + n / 4;
-        let mk = |l| layout::create(&self.device, l, self.state_capacity * 16, STATE_USAGE);
-        self.q = [mk("q0"), mk("q1")];
-        self.qd = [mk("qd0"), mk("qd1")];
+        let mk = |l| layout::create(&self.device, l, self.state_capacity * STATE_STRIDE as usize, STATE_USAGE);
+        self.state = [mk("state 0"), mk("state 1")];
         self.state_valid = 0;
         true
     }
