@@ -9,6 +9,12 @@
 //! When the model has nothing that can break and no leaking opening, no fracture work is done and a GPU runs a
 //! whole advance as one submission.
 //!
+//! **Synchronous and asynchronous, one path.** The stepping is written once, as `async` methods that await the
+//! solver's read-backs ([`Solver::advance_async`], [`Solver::sync_state_async`]); [`World::advance`],
+//! [`World::step`] and the cuts poll them once, which finishes at once on every backend that can wait for its
+//! device. In a browser, where a GPU read-back completes only after control returns to the event loop, the page
+//! awaits [`World::advance_async`] instead.
+//!
 //! **After a fracture** the pass's [`TopologyDelta`] goes to [`Solver::notify_model_changed`] (a GPU re-uploads
 //! what it names) and, when particles were split off, [`Solver::upload_new_particles`] gives it their state (a
 //! fracture never moves the others). A leak alone only changes the bodies' gas.
@@ -89,15 +95,27 @@ impl<R: Real> World<R> {
     /// One step of `dt` \[s\], then the fracture pass when [`World::fracture_every`] steps have passed since the
     /// last one. Returns what happened (the events are also appended to [`World::events`]).
     pub fn step(&mut self, dt: f64) -> Result<Advance, StepError> {
+        now(self.step_async(dt))
+    }
+
+    /// [`World::step`] on a backend that reads back asynchronously (the GPU in a browser); the same steps.
+    pub async fn step_async(&mut self, dt: f64) -> Result<Advance, StepError> {
         check_dt(dt)?;
         let mut out = Advance::default();
-        self.batch(dt, 1, &mut out)?;
-        self.solver.sync_state(&mut self.state)?;
+        self.batch(dt, 1, &mut out).await?;
+        self.solver.sync_state_async(&mut self.state).await?;
         Ok(out)
     }
 
     /// Advances by `duration` \[s\] in steps of `dt` \[s\], the last one shortened to land exactly.
     pub fn advance(&mut self, duration: f64, dt: f64) -> Result<Advance, StepError> {
+        now(self.advance_async(duration, dt))
+    }
+
+    /// [`World::advance`] on a backend that reads back asynchronously (the GPU in a browser, where a read-back
+    /// completes only after control returns to the event loop): the same steps and fracture passes, awaiting the
+    /// read-backs instead of waiting for them. [`World::advance`] is this, polled once.
+    pub async fn advance_async(&mut self, duration: f64, dt: f64) -> Result<Advance, StepError> {
         check_dt(dt)?;
         if !(duration.is_finite() && duration >= 0.0) {
             return Err(StepError::Config(format!("duration must be finite and >= 0 s, got {duration}")));
@@ -124,25 +142,30 @@ impl<R: Real> World<R> {
                     n += 1;
                 }
             }
-            self.batch(h, n, &mut out)?;
+            self.batch(h, n, &mut out).await?;
         }
-        self.solver.sync_state(&mut self.state)?;
+        self.solver.sync_state_async(&mut self.state).await?;
         Ok(out)
     }
 
     /// Breaks spring `sp` now, whatever its strain (a cut); the events (none if it cannot break).
     pub fn break_spring(&mut self, sp: usize) -> Result<Vec<FractureEvent>, StepError> {
-        self.cut(sp, false)
+        now(self.cut(sp, false))
     }
 
     /// Breaks particle `v` out as a core block now, whatever its load (a puncture); the events (none if it
     /// cannot: pinned, on or next to an opening, an odd valence).
     pub fn break_core(&mut self, v: usize) -> Result<Vec<FractureEvent>, StepError> {
-        self.cut(v, true)
+        now(self.cut(v, true))
     }
 
-    fn cut(&mut self, index: usize, core: bool) -> Result<Vec<FractureEvent>, StepError> {
-        self.solver.sync_state(&mut self.state)?;
+    /// [`World::break_core`] on a backend that reads back asynchronously (a puncture in a browser).
+    pub async fn break_core_async(&mut self, v: usize) -> Result<Vec<FractureEvent>, StepError> {
+        self.cut(v, true).await
+    }
+
+    async fn cut(&mut self, index: usize, core: bool) -> Result<Vec<FractureEvent>, StepError> {
+        self.solver.sync_state_async(&mut self.state).await?;
         let (m, s) = (&mut self.model, &mut self.state);
         let delta = if core { self.fracture.break_core(m, s, index) } else { self.fracture.break_spring(m, s, index) };
         self.after_fracture(&delta)?;
@@ -169,8 +192,8 @@ impl<R: Real> World<R> {
 
     /// `n` steps of `h`, then the fracture pass once `fracture_every` steps have passed since the last one (the
     /// seed's steps 4 and 5), with the time they covered.
-    fn batch(&mut self, h: f64, n: usize, out: &mut Advance) -> Result<(), StepError> {
-        self.solver.advance(&self.model, &mut self.state, h, n)?;
+    async fn batch(&mut self, h: f64, n: usize, out: &mut Advance) -> Result<(), StepError> {
+        self.solver.advance_async(&self.model, &mut self.state, h, n).await?;
         out.steps += n;
         if !self.fracture_due() {
             self.since_fracture = (0, 0.0);
@@ -187,7 +210,7 @@ impl<R: Real> World<R> {
         if !self.solver.may_have_fracture_candidates() && self.model.openings.is_empty() && !pumping {
             return Ok(());
         }
-        self.solver.sync_state(&mut self.state)?;
+        self.solver.sync_state_async(&mut self.state).await?;
         let measures = self.solver.fracture_measures(&self.model);
         let delta = self.fracture.apply_measured(&mut self.model, &mut self.state, covered, measures);
         self.after_fracture(&delta)?;
@@ -228,6 +251,18 @@ impl World<f32> {
     /// The GPU solver, if that is the backend (its position buffer for drawing, its passes, upload counters).
     pub fn gpu_solver(&self) -> Option<&crate::gpu::GpuSolver> {
         self.solver.as_any().downcast_ref::<crate::gpu::GpuSolver>()
+    }
+}
+
+/// The result of `f`, which every backend that can wait for its device (the CPU; a GPU off the web) finishes at its
+/// first poll; a backend that must await a read-back (WebGPU in a browser) gets an error naming the async method.
+fn now<T>(f: impl std::future::Future<Output = Result<T, StepError>>) -> Result<T, StepError> {
+    let mut f = std::pin::pin!(f);
+    match f.as_mut().poll(&mut std::task::Context::from_waker(std::task::Waker::noop())) {
+        std::task::Poll::Ready(r) => r,
+        std::task::Poll::Pending => Err(StepError::Backend(
+            "this backend reads back asynchronously (WebGPU in a browser): use World::advance_async, step_async or break_core_async".into(),
+        )),
     }
 }
 

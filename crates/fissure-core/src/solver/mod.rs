@@ -100,6 +100,10 @@ impl SolverConfig {
     }
 }
 
+/// A boxed future that need not be `Send` (a browser's GPU handles are not): what [`Solver::advance_async`] and
+/// [`Solver::sync_state_async`] return.
+pub type LocalFuture<'a, T> = std::pin::Pin<Box<dyn std::future::Future<Output = T> + 'a>>;
+
 /// What every solver (CPU, GPU) offers.
 ///
 /// `World` (in the `fissure` facade) drives a solver through this trait and is the one place that sequences
@@ -129,6 +133,23 @@ pub trait Solver<R: Real>: Send + Sync {
     /// Brings `state` up to date with the solver's copy (a GPU reads it back). Default: nothing to do.
     fn sync_state(&mut self, _state: &mut State<R>) -> Result<(), StepError> {
         Ok(())
+    }
+    /// [`Solver::advance`] for a backend that cannot wait for its device: WebGPU in a browser, where a read-back
+    /// completes only once control is back in the event loop. `World`'s stepping is written once, against these
+    /// two; its synchronous methods poll it once and find it done on every backend that can wait. Default: the
+    /// synchronous method, ready at once.
+    fn advance_async<'a>(
+        &'a mut self,
+        model: &'a Model<R>,
+        state: &'a mut State<R>,
+        dt: f64,
+        steps: usize,
+    ) -> LocalFuture<'a, Result<(), StepError>> {
+        Box::pin(std::future::ready(self.advance(model, state, dt, steps)))
+    }
+    /// [`Solver::sync_state`] for a backend that cannot wait for its device (see [`Solver::advance_async`]).
+    fn sync_state_async<'a>(&'a mut self, state: &'a mut State<R>) -> LocalFuture<'a, Result<(), StepError>> {
+        Box::pin(std::future::ready(self.sync_state(state)))
     }
     /// `state` was changed outside the solver (a fracture split particles, a user moved them): take it as the
     /// solver's copy (a GPU uploads it). Default: nothing to do.

@@ -3,7 +3,45 @@
 
 use super::*;
 use crate::layout::{GpuParticle, GpuSpring};
-use fissure_core::{Solver, StepError, TopologyDelta};
+use fissure_core::{LocalFuture, Solver, StepError, TopologyDelta};
+
+/// Where a buffer mapping's callback leaves its result and finds the waker of the future awaiting it.
+#[derive(Default)]
+struct MapSlot {
+    result: Option<Result<(), wgpu::BufferAsyncError>>,
+    waker: Option<std::task::Waker>,
+}
+
+/// The future of a buffer mapping (wgpu reports it through a callback).
+struct Mapped(std::sync::Arc<std::sync::Mutex<MapSlot>>);
+
+impl std::future::Future for Mapped {
+    type Output = Result<(), wgpu::BufferAsyncError>;
+
+    fn poll(self: std::pin::Pin<&mut Self>, cx: &mut std::task::Context<'_>) -> std::task::Poll<Self::Output> {
+        let mut s = self.0.lock().unwrap_or_else(|e| e.into_inner());
+        match s.result.take() {
+            Some(r) => std::task::Poll::Ready(r),
+            None => {
+                s.waker = Some(cx.waker().clone());
+                std::task::Poll::Pending
+            }
+        }
+    }
+}
+
+/// The result of a read-back future, which off the web is ready at its first poll (the device was waited on);
+/// on the web an error naming the async method instead of blocking the browser's only thread.
+pub(super) fn now<T, E: From<GpuError>>(f: impl std::future::Future<Output = Result<T, E>>) -> Result<T, E> {
+    let mut f = std::pin::pin!(f);
+    match f.as_mut().poll(&mut std::task::Context::from_waker(std::task::Waker::noop())) {
+        std::task::Poll::Ready(r) => r,
+        std::task::Poll::Pending => Err(GpuError::Readback(
+            "a read-back cannot be waited for here (WebGPU in a browser): use the async methods (run_async, read_state_async, World::advance_async)".into(),
+        )
+        .into()),
+    }
+}
 
 /// Positions and velocities as the state buffers hold them: `[x, y, z, 0]` of the position, then of the velocity.
 fn interleave(q: &[Vec3], qd: &[Vec3]) -> Vec<[f32; 4]> {
@@ -47,10 +85,17 @@ impl GpuSolver {
         Ok(())
     }
 
-    /// Reads the current positions, velocities and time into `state` (a synchronous read-back).
+    /// Reads the current positions, velocities and time into `state` (a synchronous read-back; in a browser use
+    /// [`GpuSolver::read_state_async`]).
     pub fn read_state(&mut self, state: &mut State<f32>) -> Result<(), GpuError> {
+        now(self.read_state_async(state))
+    }
+
+    /// Reads the current positions, velocities and time into `state`, awaiting the read-back (in a browser the
+    /// buffer is mapped only once control is back in the event loop).
+    pub async fn read_state_async(&mut self, state: &mut State<f32>) -> Result<(), GpuError> {
         let n = self.particle_count();
-        let both = self.read_vec4(&self.state[self.cur], 2 * n)?;
+        let both = self.read_vec4(&self.state[self.cur], 2 * n).await?;
         let v3 = |v: &[f32; 4]| Vec3::new(v[0], v[1], v[2]);
         state.particle_q.clear();
         state.particle_q.extend(both.iter().step_by(2).map(v3));
@@ -60,7 +105,8 @@ impl GpuSolver {
         Ok(())
     }
 
-    pub(super) fn read_bytes(&self, src: &wgpu::Buffer, bytes: u64) -> Result<Vec<u8>, GpuError> {
+    /// The first `bytes` of `src`, through a staging buffer.
+    pub(super) async fn read_bytes(&self, src: &wgpu::Buffer, bytes: u64) -> Result<Vec<u8>, GpuError> {
         let bytes = bytes.max(4).next_multiple_of(4);
         let staging = layout::create(
             &self.device,
@@ -71,23 +117,32 @@ impl GpuSolver {
         let mut enc = self.device.create_command_encoder(&Default::default());
         enc.copy_buffer_to_buffer(src, 0, &staging, 0, bytes);
         self.queue.submit([enc.finish()]);
-        self.map_read(&staging, bytes)
+        self.map_read(&staging, bytes).await
     }
 
-    pub(super) fn map_read(&self, staging: &wgpu::Buffer, bytes: u64) -> Result<Vec<u8>, GpuError> {
-        let (tx, rx) = mpsc::channel();
+    /// Maps `staging` and copies out its first `bytes`. Off the web the device is first polled until the work is
+    /// done, so the future is ready at its first poll (the synchronous methods rely on it); on the web the
+    /// browser maps it later and wakes the future.
+    pub(super) async fn map_read(&self, staging: &wgpu::Buffer, bytes: u64) -> Result<Vec<u8>, GpuError> {
+        let slot = std::sync::Arc::new(std::sync::Mutex::new(MapSlot::default()));
+        let done = slot.clone();
         staging.map_async(wgpu::MapMode::Read, 0..bytes, move |r| {
-            let _ = tx.send(r);
+            let mut s = done.lock().unwrap_or_else(|e| e.into_inner());
+            s.result = Some(r);
+            if let Some(w) = s.waker.take() {
+                w.wake();
+            }
         });
+        #[cfg(not(target_arch = "wasm32"))]
         self.device.poll(wgpu::PollType::wait_indefinitely()).map_err(|e| GpuError::Readback(e.to_string()))?;
-        rx.recv().map_err(|e| GpuError::Readback(e.to_string()))?.map_err(|e| GpuError::Readback(e.to_string()))?;
+        Mapped(slot).await.map_err(|e| GpuError::Readback(e.to_string()))?;
         let out = staging.get_mapped_range(0..bytes).map_err(|e| GpuError::Readback(e.to_string()))?.to_vec();
         staging.unmap();
         Ok(out)
     }
 
-    pub(super) fn read_vec4(&self, src: &wgpu::Buffer, n: usize) -> Result<Vec<[f32; 4]>, GpuError> {
-        let bytes = self.read_bytes(src, (n * 16) as u64)?;
+    pub(super) async fn read_vec4(&self, src: &wgpu::Buffer, n: usize) -> Result<Vec<[f32; 4]>, GpuError> {
+        let bytes = self.read_bytes(src, (n * 16) as u64).await?;
         Ok(bytemuck::pod_collect_to_vec::<u8, [f32; 4]>(&bytes[..n * 16]))
     }
 
@@ -283,11 +338,7 @@ impl Solver<f32> for GpuSolver {
     }
 
     fn advance(&mut self, model: &Model<f32>, state: &mut State<f32>, dt: f64, steps: usize) -> Result<(), StepError> {
-        if self.state_stale {
-            GpuSolver::upload_state(self, state)?;
-        }
-        self.last_report = self.run(model, dt, steps).map_err(|e| self.step_error(model, e))?;
-        Ok(())
+        now(self.advance_async(model, state, dt, steps))
     }
 
     fn time(&self, _state: &State<f32>) -> f64 {
@@ -299,10 +350,33 @@ impl Solver<f32> for GpuSolver {
     }
 
     fn sync_state(&mut self, state: &mut State<f32>) -> Result<(), StepError> {
-        if state.time != self.time || state.particle_q.len() != self.particle_count() {
-            self.read_state(state)?;
-        }
-        Ok(())
+        now(self.sync_state_async(state))
+    }
+
+    fn advance_async<'a>(
+        &'a mut self,
+        model: &'a Model<f32>,
+        state: &'a mut State<f32>,
+        dt: f64,
+        steps: usize,
+    ) -> LocalFuture<'a, Result<(), StepError>> {
+        Box::pin(async move {
+            if self.state_stale {
+                GpuSolver::upload_state(self, state)?;
+            }
+            let report = self.run_async(model, dt, steps).await;
+            self.last_report = report.map_err(|e| self.step_error(model, e))?;
+            Ok(())
+        })
+    }
+
+    fn sync_state_async<'a>(&'a mut self, state: &'a mut State<f32>) -> LocalFuture<'a, Result<(), StepError>> {
+        Box::pin(async move {
+            if state.time != self.time || state.particle_q.len() != self.particle_count() {
+                self.read_state_async(state).await?;
+            }
+            Ok(())
+        })
     }
 
     fn upload_state(&mut self, state: &State<f32>) -> Result<(), StepError> {
