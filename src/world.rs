@@ -234,6 +234,65 @@ impl<R: Real> World<R> {
     }
 }
 
+/// The fastest a grabbed mass point follows its target \[m/s\] ([`World::steer_grab`]).
+pub const GRAB_SPEED: f64 = 2.0;
+
+/// Grabbing with the mouse (the viewer and the web page): a grabbed mass point is held as a moving pin, a
+/// [`Handle`] of its own, steered towards a target each frame, so that a pull past a cloth's strength tears it;
+/// fracture's copies of the grabbed point follow the same handle.
+impl<R: Real> World<R> {
+    /// Grabs particle `i`: it becomes a moving pin on a new handle, whose index is returned. `None` (nothing
+    /// changes) for a particle out of range, pinned, or already on a handle.
+    pub fn grab(&mut self, i: usize) -> Option<usize> {
+        let m = &mut self.model;
+        if i >= m.particle_count() || m.particle_inv_mass[i] == R::ZERO || m.particle_handle[i] != u32::MAX {
+            return None;
+        }
+        let h = m.handles.len();
+        m.handles.push(Handle { keys: vec![(self.state.time, glam::DVec3::ZERO)] });
+        m.particle_handle[i] = h as u32;
+        m.particle_inv_mass[i] = R::ZERO;
+        self.solver.notify_model_changed(&self.model, &TopologyDelta::whole());
+        Some(h)
+    }
+
+    /// Moves grab `handle`'s pin over the next `frame` seconds from `particle`'s position towards `target`, at
+    /// most [`GRAB_SPEED`].
+    pub fn steer_grab(&mut self, handle: usize, particle: usize, target: glam::DVec3, frame: f64) {
+        if handle >= self.model.handles.len() || particle >= self.state.particle_q.len() {
+            return;
+        }
+        let q = self.state.particle_q[particle].to_dvec3();
+        let mut step = target - q;
+        let max = GRAB_SPEED * frame;
+        if step.length() > max {
+            step = step.normalize() * max;
+        }
+        let t = self.state.time;
+        let h = &mut self.model.handles[handle];
+        let off = h.offset(t);
+        h.keys = vec![(t, off), (t + frame, off + step)];
+    }
+
+    /// Lets go of grab `handle` (the last handle added): the grabbed particle and its copies are free again,
+    /// moving as the pin last moved them.
+    pub fn release_grab(&mut self, handle: usize) {
+        let m = &mut self.model;
+        if handle >= m.handles.len() {
+            return;
+        }
+        for i in 0..m.particle_count() {
+            if m.particle_handle[i] == handle as u32 {
+                m.particle_handle[i] = u32::MAX;
+                let mass = m.particle_mass[i];
+                m.particle_inv_mass[i] = if mass > R::ZERO { R::ONE / mass } else { R::ZERO };
+            }
+        }
+        m.handles.truncate(handle);
+        self.solver.notify_model_changed(&self.model, &TopologyDelta::whole());
+    }
+}
+
 #[cfg(feature = "gpu")]
 impl World<f32> {
     /// A world on the GPU: a [`crate::gpu::GpuSolver`] for `model` on `ctx`'s device, with `config`'s

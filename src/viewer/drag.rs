@@ -2,7 +2,6 @@
 //! the cursor, so a pull past a cloth's strength tears it.
 
 use super::App;
-use crate::{Handle, TopologyDelta};
 use glam::Vec3;
 
 /// A grabbed mass point: its index and the plane (through its grab position, facing the camera) it is dragged in.
@@ -13,9 +12,6 @@ pub(super) struct Drag {
     /// The moving pin ([`Handle`]) that holds the grabbed particle (and any copies fracture splits off it).
     pub(super) handle: usize,
 }
-
-/// The fastest a grabbed mass point follows the cursor \[m/s\].
-const DRAG_SPEED: f32 = 2.0;
 
 impl App {
     pub(super) fn drag_target(&self, plane_point: Vec3) -> Vec3 {
@@ -29,57 +25,26 @@ impl App {
         o + d * ((plane_point - o).dot(n) / denom)
     }
 
-    /// Grabs particle `i` (not one already pinned or on a handle): it becomes a moving pin, a [`Handle`] of its
-    /// own, that [`App::simulate`] moves towards `target`; fracture's copies of it follow the same handle.
+    /// Grabs particle `i` (not one already pinned or on a handle) through [`crate::World::grab`]; the pin is
+    /// steered towards `target` each frame.
     pub(super) fn grab(&mut self, i: usize, target: Vec3) {
-        let m = &mut self.world.model;
-        if m.particle_inv_mass[i] == 0.0 || m.particle_handle[i] != u32::MAX {
-            return;
-        }
-        let h = m.handles.len();
-        m.handles.push(Handle { keys: vec![(self.world.state.time, glam::DVec3::ZERO)] });
-        m.particle_handle[i] = h as u32;
-        m.particle_inv_mass[i] = 0.0;
-        self.world.solver.notify_model_changed(&self.world.model, &TopologyDelta::whole());
+        let Some(handle) = self.world.grab(i) else { return };
         let p = self.world.state.particle_q[i];
-        self.drag = Some(Drag { particle: i, plane_point: p, target, handle: h });
+        self.drag = Some(Drag { particle: i, plane_point: p, target, handle });
     }
 
     /// Lets go: the grabbed particle and its copies are free again, moving as the pin last moved them.
     pub(super) fn release(&mut self) {
-        let Some(d) = self.drag.take() else { return };
-        let m = &mut self.world.model;
-        if d.handle >= m.handles.len() {
-            return;
+        if let Some(d) = self.drag.take() {
+            self.world.release_grab(d.handle);
         }
-        for i in 0..m.particle_count() {
-            if m.particle_handle[i] == d.handle as u32 {
-                m.particle_handle[i] = u32::MAX;
-                let mass = m.particle_mass[i];
-                m.particle_inv_mass[i] = if mass > 0.0 { 1.0 / mass } else { 0.0 };
-            }
-        }
-        // The drag's handle is the last one: nothing else adds handles while it is held.
-        m.handles.truncate(d.handle);
-        self.world.solver.notify_model_changed(&self.world.model, &TopologyDelta::whole());
     }
 
-    /// Moves the grabbed particle's pin towards the cursor over this frame, at most [`DRAG_SPEED`].
+    /// Moves the grabbed particle's pin towards the cursor over this frame ([`crate::World::steer_grab`]).
     pub(super) fn move_pin(&mut self) {
-        if let Some(d) = &self.drag
-            && d.handle < self.world.model.handles.len()
-        {
-            let frame = self.options.frame_time;
-            let q = self.world.state.particle_q[d.particle];
-            let max = DRAG_SPEED * frame as f32;
-            let mut step = d.target - q;
-            if step.length() > max {
-                step = step.normalize() * max;
-            }
-            let t = self.world.state.time;
-            let h = &mut self.world.model.handles[d.handle];
-            let off = h.offset(t);
-            h.keys = vec![(t, off), (t + frame, off + step.as_dvec3())];
+        if let Some(d) = &self.drag {
+            let (h, i, target) = (d.handle, d.particle, d.target.as_dvec3());
+            self.world.steer_grab(h, i, target, self.options.frame_time);
         }
     }
 }

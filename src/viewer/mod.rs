@@ -286,28 +286,10 @@ impl App {
         self.gfx.as_ref().map_or((1.0, 1.0), |g| (g.config.width as f32, g.config.height as f32))
     }
 
-    /// The particle under pixel `(x, y)`: the nearest to the camera among those within 14 px, on a body with
-    /// triangles.
+    /// The particle under pixel `(x, y)` ([`Camera::pick`]).
     fn pick(&self, x: f32, y: f32) -> Option<usize> {
         let (w, h) = self.size();
-        let m = &self.world.model;
-        let mut best: Option<(f32, f32, usize)> = None;
-        for (i, q) in self.world.state.particle_q.iter().enumerate() {
-            if m.particle_tris.row(i).is_empty() {
-                continue;
-            }
-            if let Some((px, py, depth)) = self.camera.project(*q, w, h) {
-                let d2 = (px - x).powi(2) + (py - y).powi(2);
-                if d2 < 14.0 * 14.0 {
-                    // Prefer the front: depth first, then closeness on screen.
-                    let key = depth + d2 * 1e-7;
-                    if best.is_none_or(|b| key < b.0) {
-                        best = Some((key, d2, i));
-                    }
-                }
-            }
-        }
-        best.map(|b| b.2)
+        self.camera.pick(&self.world.model, &self.world.state.particle_q, x, y, w, h)
     }
 
     /// Where the centre of body `b` is on screen \[px\].

@@ -31,6 +31,7 @@
 
 mod context;
 mod layout;
+mod mapping;
 pub mod render;
 pub mod sdf;
 mod solver;

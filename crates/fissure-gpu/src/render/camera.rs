@@ -98,6 +98,28 @@ impl Camera {
         let n = c.truncate() / c.w;
         Some(((n.x + 1.0) * 0.5 * width, (1.0 - n.y) * 0.5 * height, n.z))
     }
+
+    /// The mass point under pixel `(x, y)` of a `width` × `height` view: among those within 14 px on a body with
+    /// triangles, the nearest to the camera (the viewer's and the web page's picking).
+    pub fn pick(&self, model: &Model<f32>, q: &[Vec3], x: f32, y: f32, width: f32, height: f32) -> Option<usize> {
+        let mut best: Option<(f32, usize)> = None;
+        for (i, p) in q.iter().enumerate() {
+            if model.particle_tris.row(i).is_empty() {
+                continue;
+            }
+            if let Some((px, py, depth)) = self.project(*p, width, height) {
+                let d2 = (px - x).powi(2) + (py - y).powi(2);
+                if d2 < 14.0 * 14.0 {
+                    // Prefer the front: depth first, then closeness on screen.
+                    let key = depth + d2 * 1e-7;
+                    if best.is_none_or(|b| key < b.0) {
+                        best = Some((key, i));
+                    }
+                }
+            }
+        }
+        best.map(|b| b.1)
+    }
 }
 
 #[repr(C)]

@@ -36,7 +36,6 @@
 use crate::{GpuError, STATE_STRIDE};
 use fissure_core::{Model, SpringKind, State};
 use glam::{Mat4, Vec3};
-use std::sync::mpsc;
 use wgpu::util::DeviceExt;
 
 mod camera;

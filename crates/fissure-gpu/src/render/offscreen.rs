@@ -58,6 +58,23 @@ impl Offscreen {
         queue.submit([enc.finish()]);
         self.readback.read(device, Self::FORMAT)
     }
+
+    /// [`Offscreen::render`], awaiting the read-back (what a browser needs).
+    pub async fn render_async(
+        &mut self,
+        device: &wgpu::Device,
+        queue: &wgpu::Queue,
+        renderer: &mut Renderer,
+        camera: &Camera,
+        view: &View,
+        positions: Positions<'_>,
+    ) -> Result<Image, GpuError> {
+        let mut enc = device.create_command_encoder(&Default::default());
+        renderer.encode(&mut enc, &self.color, &self.resolve_view, &self.depth, self.size(), camera, view, positions);
+        self.readback.encode_copy(&mut enc, &self.resolve);
+        queue.submit([enc.finish()]);
+        self.readback.read_async(device, Self::FORMAT).await
+    }
 }
 
 /// A mappable buffer that a texture of a given size is copied into, rows padded to wgpu's 256-byte alignment:
@@ -102,20 +119,19 @@ impl Readback {
         );
     }
 
-    /// Waits for the submitted copy and returns it as RGBA (`format` says whether the texture was BGRA).
+    /// Waits for the submitted copy and returns it as RGBA (`format` says whether the texture was BGRA). In a
+    /// browser use [`Readback::read_async`].
     pub fn read(&self, device: &wgpu::Device, format: wgpu::TextureFormat) -> Result<Image, GpuError> {
-        let err = |e: &dyn std::fmt::Display| GpuError::Readback(e.to_string());
-        let (tx, rx) = mpsc::channel();
-        self.buffer.map_async(wgpu::MapMode::Read, .., move |r| {
-            let _ = tx.send(r);
-        });
-        device.poll(wgpu::PollType::wait_indefinitely()).map_err(|e| err(&e))?;
-        rx.recv().map_err(|e| err(&e))?.map_err(|e| err(&e))?;
+        crate::mapping::now(self.read_async(device, format))
+    }
+
+    /// [`Readback::read`], awaiting the mapping (what a browser needs).
+    pub async fn read_async(&self, device: &wgpu::Device, format: wgpu::TextureFormat) -> Result<Image, GpuError> {
         let bgra = matches!(format, wgpu::TextureFormat::Bgra8Unorm | wgpu::TextureFormat::Bgra8UnormSrgb);
         let [width, height] = self.size;
         let mut rgba = Vec::with_capacity((4 * width * height) as usize);
         {
-            let data = self.buffer.get_mapped_range(..).map_err(|e| err(&e))?;
+            let data = crate::mapping::map_read(device, &self.buffer, self.buffer.size()).await?;
             for row in data.chunks_exact(self.row_bytes as usize) {
                 let row = &row[..(4 * width) as usize];
                 if bgra {

@@ -548,7 +548,7 @@ impl GpuSolver {
     /// Runs `steps` substeps of `dt` \[s\] in one submission. Reads back only the 16-byte status word, and only
     /// when `check_finite` is on or the model can break. In a browser use [`GpuSolver::run_async`].
     pub fn run(&mut self, m: &Model<f32>, dt: f64, steps: usize) -> Result<RunReport, GpuError> {
-        transfer::now(self.run_async(m, dt, steps))
+        crate::mapping::now(self.run_async(m, dt, steps))
     }
 
     /// [`GpuSolver::run`], awaiting the status word's read-back (what a browser needs: its read-backs complete
@@ -605,7 +605,7 @@ impl GpuSolver {
     /// The fracture candidates the last submission flagged.
     pub fn candidates(&self) -> Result<Candidates, GpuError> {
         let cap = self.config.candidate_capacity.max(1) as usize;
-        let bytes = transfer::now(self.read_bytes(&self.candidates, ((4 + 2 * cap) * 4) as u64))?;
+        let bytes = crate::mapping::now(self.read_bytes(&self.candidates, ((4 + 2 * cap) * 4) as u64))?;
         let w: Vec<u32> = bytemuck::pod_collect_to_vec(&bytes);
         let list = |kind: usize| {
             let n = (w[kind] as usize).min(cap);
@@ -634,14 +634,14 @@ impl GpuSolver {
             self.dispatch(&mut pass, "net_forces", cur, 0, groups(self.particle_count()));
         }
         self.queue.submit([enc.finish()]);
-        let f = transfer::now(self.read_vec4(&self.state[1 - self.cur], 2 * self.particle_count()))?;
+        let f = crate::mapping::now(self.read_vec4(&self.state[1 - self.cur], 2 * self.particle_count()))?;
         Ok(f.iter().step_by(2).map(|v| Vec3::new(v[0], v[1], v[2])).collect())
     }
 
     /// Volume \[m^3\] and net pressure \[Pa\] of each body as of the last surface pass (zeros for bodies without gas).
     pub fn body_volumes_pressures(&self, m: &Model<f32>) -> Result<Vec<(f32, f32)>, GpuError> {
         let nb = m.body_count();
-        let v = transfer::now(self.read_vec4(&self.scratch.body_state, nb))?;
+        let v = crate::mapping::now(self.read_vec4(&self.scratch.body_state, nb))?;
         Ok(v.iter()
             .zip(&self.packed.bodies)
             .map(|(x, b)| if b.gas_slot == layout::NONE { (0.0, 0.0) } else { (x[0], x[1]) })

@@ -3,45 +3,8 @@
 
 use super::*;
 use crate::layout::{GpuParticle, GpuSpring};
+use crate::mapping::now;
 use fissure_core::{LocalFuture, Solver, StepError, TopologyDelta};
-
-/// Where a buffer mapping's callback leaves its result and finds the waker of the future awaiting it.
-#[derive(Default)]
-struct MapSlot {
-    result: Option<Result<(), wgpu::BufferAsyncError>>,
-    waker: Option<std::task::Waker>,
-}
-
-/// The future of a buffer mapping (wgpu reports it through a callback).
-struct Mapped(std::sync::Arc<std::sync::Mutex<MapSlot>>);
-
-impl std::future::Future for Mapped {
-    type Output = Result<(), wgpu::BufferAsyncError>;
-
-    fn poll(self: std::pin::Pin<&mut Self>, cx: &mut std::task::Context<'_>) -> std::task::Poll<Self::Output> {
-        let mut s = self.0.lock().unwrap_or_else(|e| e.into_inner());
-        match s.result.take() {
-            Some(r) => std::task::Poll::Ready(r),
-            None => {
-                s.waker = Some(cx.waker().clone());
-                std::task::Poll::Pending
-            }
-        }
-    }
-}
-
-/// The result of a read-back future, which off the web is ready at its first poll (the device was waited on);
-/// on the web an error naming the async method instead of blocking the browser's only thread.
-pub(super) fn now<T, E: From<GpuError>>(f: impl std::future::Future<Output = Result<T, E>>) -> Result<T, E> {
-    let mut f = std::pin::pin!(f);
-    match f.as_mut().poll(&mut std::task::Context::from_waker(std::task::Waker::noop())) {
-        std::task::Poll::Ready(r) => r,
-        std::task::Poll::Pending => Err(GpuError::Readback(
-            "a read-back cannot be waited for here (WebGPU in a browser): use the async methods (run_async, read_state_async, World::advance_async)".into(),
-        )
-        .into()),
-    }
-}
 
 /// Positions and velocities as the state buffers hold them: `[x, y, z, 0]` of the position, then of the velocity.
 fn interleave(q: &[Vec3], qd: &[Vec3]) -> Vec<[f32; 4]> {
@@ -120,23 +83,9 @@ impl GpuSolver {
         self.map_read(&staging, bytes).await
     }
 
-    /// Maps `staging` and copies out its first `bytes`. Off the web the device is first polled until the work is
-    /// done, so the future is ready at its first poll (the synchronous methods rely on it); on the web the
-    /// browser maps it later and wakes the future.
+    /// Maps `staging` and copies out its first `bytes` ([`crate::mapping::map_read`]).
     pub(super) async fn map_read(&self, staging: &wgpu::Buffer, bytes: u64) -> Result<Vec<u8>, GpuError> {
-        let slot = std::sync::Arc::new(std::sync::Mutex::new(MapSlot::default()));
-        let done = slot.clone();
-        staging.map_async(wgpu::MapMode::Read, 0..bytes, move |r| {
-            let mut s = done.lock().unwrap_or_else(|e| e.into_inner());
-            s.result = Some(r);
-            if let Some(w) = s.waker.take() {
-                w.wake();
-            }
-        });
-        #[cfg(not(target_arch = "wasm32"))]
-        self.device.poll(wgpu::PollType::wait_indefinitely()).map_err(|e| GpuError::Readback(e.to_string()))?;
-        Mapped(slot).await.map_err(|e| GpuError::Readback(e.to_string()))?;
-        let out = staging.get_mapped_range(0..bytes).map_err(|e| GpuError::Readback(e.to_string()))?.to_vec();
+        let out = crate::mapping::map_read(&self.device, staging, bytes).await?.to_vec();
         staging.unmap();
         Ok(out)
     }
