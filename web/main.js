@@ -1,6 +1,6 @@
 // The page: a scene picker, one Sim per canvas, one frame per animation frame. Everything the test needs is on
 // `window.fissure` (the Sim, its stats, a ready flag, errors).
-import init, { Sim, scene_names } from "./pkg/fissure_web.js";
+import init, { Sim, scene_names, check_frame } from "./pkg/fissure_web.js";
 
 const canvas = document.getElementById("view");
 const picker = document.getElementById("scene");
@@ -9,7 +9,9 @@ const errorBox = document.getElementById("error");
 // `?paused` loads the scene without running it (the test steps it itself); `?present=copy` draws offscreen and
 // copies each frame into a 2D canvas (for browsers whose WebGPU cannot present to a canvas: headless Chromium).
 const params = new URLSearchParams(location.search);
-const api = (window.fissure = { sim: null, ready: false, error: null, paused: params.has("paused"), frames: 0 });
+const api = (window.fissure = {
+  sim: null, ready: false, error: null, paused: params.has("paused"), frames: 0, inFrame: false, lastPuncture: null,
+});
 
 function fail(message) {
   api.error = String(message);
@@ -37,13 +39,19 @@ async function load(name) {
     if (api.sim) api.sim.free();
     api.sim = null;
     api.sim = await Sim.create(canvas, name, params.get("present") === "copy");
+    api.sim.set_adapter(api.adapter);
   });
   if (mine !== generation) return;
   api.ready = true;
   const tick = async (t) => {
     if (mine !== generation || api.error) return;
     if (!api.paused) {
-      await serial(() => api.sim.frame(t));
+      api.inFrame = true;
+      try {
+        await serial(() => api.sim.frame(t));
+      } finally {
+        api.inFrame = false;
+      }
       api.frames += 1;
       if (api.frames % 10 === 1) {
         const s = JSON.parse(api.sim.stats());
@@ -68,7 +76,7 @@ canvas.addEventListener("contextmenu", (e) => e.preventDefault());
 canvas.addEventListener("mousedown", (e) => {
   if (!api.ready) return;
   const [x, y] = pixel(e);
-  if (e.button === 2) serial(() => api.sim.puncture(x, y)).catch(fail);
+  if (e.button === 2) serial(() => api.sim.puncture(x, y)).then((n) => (api.lastPuncture = n)).catch(fail);
   else if (e.button === 0) serial(() => api.sim.mouse_down(x, y)).catch(fail);
 });
 window.addEventListener("mousemove", (e) => {
@@ -88,6 +96,12 @@ try {
     throw new Error("This browser has no WebGPU (navigator.gpu is missing). Use a recent Chrome, Edge or Firefox with WebGPU enabled.");
   }
   await init();
+  // What the browser says of its adapter (wgpu does not learn its name on the web).
+  const adapter = await navigator.gpu.requestAdapter();
+  if (!adapter) throw new Error("This browser has WebGPU but no adapter for it (is it switched off?).");
+  const info = adapter.info || {};
+  api.adapter = [info.vendor, info.architecture, info.device, info.description].filter((x) => x).join(" ") || "unnamed";
+  api.check_frame = check_frame;
   for (const n of scene_names()) picker.add(new Option(n, n));
   const wanted = params.get("scene");
   if (wanted) picker.value = wanted;

@@ -48,6 +48,18 @@ pub fn scene_names() -> Vec<String> {
     SCENES.iter().map(|(n, _)| n.to_string()).collect()
 }
 
+/// Pixel statistics of a frame read from the canvas (RGBA rows, as `getImageData` gives them): an empty string
+/// when it shows something and body 0 covers at least `min_body` of it, else what failed. The same statistics as
+/// the native frame checks (`Image::check_not_blank`).
+#[wasm_bindgen]
+pub fn check_frame(rgba: Vec<u8>, width: u32, height: u32, min_body: f64) -> String {
+    if rgba.len() != (4 * width * height) as usize {
+        return format!("{} bytes for a {width} x {height} RGBA frame", rgba.len());
+    }
+    let image = fissure::gpu::render::Image { width, height, rgba };
+    image.check_not_blank(min_body).err().unwrap_or_default()
+}
+
 /// Messages of Rust panics go to the browser console (instead of "unreachable executed").
 #[wasm_bindgen(start)]
 pub fn start() {
@@ -309,31 +321,33 @@ impl Sim {
         Ok(s.world.state.particle_q.iter().flat_map(|q| q.to_array()).collect())
     }
 
+    /// Where the centre of body `b` is on the canvas \[px\] (`[x, y]`; empty when it is behind the camera).
+    pub fn body_pixel(&self, b: u32) -> Result<Vec<f32>, JsValue> {
+        let s = self.inner()?;
+        let w = &s.world;
+        let (mut sum, mut n) = (Vec3::ZERO, 0.0f32);
+        for (q, body) in w.state.particle_q.iter().zip(&w.model.particle_body) {
+            if *body == b {
+                sum += *q;
+                n += 1.0;
+            }
+        }
+        let (width, height) = (s.size[0] as f32, s.size[1] as f32);
+        Ok(if n == 0.0 { None } else { s.camera.project(sum / n, width, height) }
+            .map_or_else(Vec::new, |(x, y, _)| vec![x, y]))
+    }
+
+    /// Names the adapter in the overlay and the stats (a browser's WebGPU tells the page, not wgpu, its name).
+    pub fn set_adapter(&self, label: String) -> Result<(), JsValue> {
+        self.inner()?.adapter = label;
+        Ok(())
+    }
+
     /// Right click at pixel `(x, y)`: punctures the body there (a core block breaks out; a gas body leaks).
     /// Resolves to the number of fracture events.
     pub async fn puncture(&self, x: f32, y: f32) -> Result<u32, JsValue> {
         let mut s = self.inner()?;
         let Some(v) = s.pick(x, y) else { return Ok(0) };
-        let events = s.world.break_core_async(v).await.map_err(js_err)?;
-        if !events.is_empty() {
-            s.model_changed();
-        }
-        Ok(events.len() as u32)
-    }
-
-    /// Punctures the gas body at its mass point nearest the camera's view centre (a scripted right click that
-    /// does not depend on where the body has moved). Resolves to the number of fracture events.
-    pub async fn puncture_center(&self) -> Result<u32, JsValue> {
-        let (x, y) = {
-            let s = self.inner()?;
-            (s.size[0] as f32 * 0.5, s.size[1] as f32 * 0.5)
-        };
-        let hit = {
-            let s = self.inner()?;
-            s.pick(x, y).or_else(|| s.nearest_to_center())
-        };
-        let Some(v) = hit else { return Ok(0) };
-        let mut s = self.inner()?;
         let events = s.world.break_core_async(v).await.map_err(js_err)?;
         if !events.is_empty() {
             s.model_changed();
@@ -416,25 +430,6 @@ impl Inner {
     fn pick(&self, x: f32, y: f32) -> Option<usize> {
         let (w, h) = (self.size[0] as f32, self.size[1] as f32);
         self.camera.pick(&self.world.model, &self.world.state.particle_q, x, y, w, h)
-    }
-
-    /// The mass point on a body with triangles whose projection is nearest the view's centre.
-    fn nearest_to_center(&self) -> Option<usize> {
-        let (w, h) = (self.size[0] as f32, self.size[1] as f32);
-        let m = &self.world.model;
-        let mut best: Option<(f32, usize)> = None;
-        for (i, q) in self.world.state.particle_q.iter().enumerate() {
-            if m.particle_tris.row(i).is_empty() {
-                continue;
-            }
-            if let Some((px, py, _)) = self.camera.project(*q, w, h) {
-                let d2 = (px - 0.5 * w).powi(2) + (py - 0.5 * h).powi(2);
-                if best.is_none_or(|b| d2 < b.0) {
-                    best = Some((d2, i));
-                }
-            }
-        }
-        best.map(|b| b.1)
     }
 
     /// Where the pointer at `(x, y)` is in the plane through `p` facing the camera.
