@@ -31,7 +31,7 @@ pub mod scene;
 pub mod scenes;
 pub mod vtk;
 mod world;
-pub use world::{Advance, World};
+pub use world::{Advance, GRAB_SPEED, World};
 #[cfg(feature = "viewer")]
 pub mod viewer;
 

@@ -2,10 +2,10 @@
 //!
 //! fissure in a web page (`web/` at the workspace root): the seed's scenes simulated by the GPU kernels on
 //! WebGPU and drawn from the same buffers into a canvas, the fracture pass on the CPU side in wasm, as on the
-//! desktop GPU path. The page's JavaScript creates a [`Sim`] for a canvas and a scene and calls [`Sim::frame`]
+//! desktop GPU path. The page's JavaScript creates a `Sim` for a canvas and a scene and calls `Sim::frame`
 //! once per animation frame; a drag grabs a mass point, a right click punctures the body.
 //!
-//! The stepping is [`fissure::World::advance_async`], the same steps and fracture passes as every other front end
+//! The stepping is `fissure::World::advance_async`, the same steps and fracture passes as every other front end
 //! (`World::advance` is that method polled once): in a browser a GPU read-back completes only after control
 //! returns to the event loop, so it is awaited instead of waited for.
 //!
