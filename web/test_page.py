@@ -14,7 +14,7 @@ renderer, the same state buffers, one read-back per frame more.
     .venv/bin/python web/test_page.py [--out DIR]      # DIR: screenshots and results (default target/web-test)
 
 Environment: CHROMIUM (the browser, default `chromium` on PATH), FISSURE_POSITIONS (the native example binary,
-default target/release/examples/scene_positions).
+default $CARGO_TARGET_DIR/release/examples/scene_positions, CARGO_TARGET_DIR defaulting to target).
 """
 
 import argparse
@@ -110,7 +110,8 @@ def main():
     chromium = os.environ.get("CHROMIUM") or shutil.which("chromium") or shutil.which("chromium-browser")
     if not chromium:
         fail("no chromium on PATH (Debian: apt install chromium); set CHROMIUM to the browser")
-    native = Path(os.environ.get("FISSURE_POSITIONS", ROOT / "target" / "release" / "examples" / "scene_positions"))
+    target = Path(os.environ.get("CARGO_TARGET_DIR", ROOT / "target"))
+    native = Path(os.environ.get("FISSURE_POSITIONS", target / "release" / "examples" / "scene_positions"))
     if not native.exists():
         fail(f"{native} is missing: cargo build --release --features gpu --example scene_positions")
 
