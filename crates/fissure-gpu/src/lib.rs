@@ -24,6 +24,11 @@
 //! # Ok::<(), Box<dyn std::error::Error>>(())
 //! ```
 //!
+//! In a browser (wasm32-unknown-unknown, WebGPU: `crates/fissure-web` and `web/`) the same kernels run: each binds
+//! at most 8 storage buffers ([`KERNEL_BINDINGS`]), within WebGPU's default limits, and every read-back is a future
+//! ([`GpuSolver::run_async`], [`GpuSolver::read_state_async`], `World::advance_async`), awaited there because a
+//! browser maps a buffer only once control is back in its event loop; off the web the synchronous methods wait.
+//!
 //! Precision: the kernels run in `f32`. Per-step forces agree with the CPU `f32` forces to a few ulps of the
 //! largest force term (the sums run in a different order: CSR order on both, but the CPU sums spring runs in
 //! blocks); trajectories agree to the tolerances stated in `tests/gpu.rs`.
