@@ -42,7 +42,7 @@ impl Offscreen {
         [self.width, self.height]
     }
 
-    /// Draws a frame and reads it back.
+    /// Draws a frame and reads it back (in a browser use [`Offscreen::render_async`]).
     pub fn render(
         &mut self,
         device: &wgpu::Device,
@@ -52,11 +52,7 @@ impl Offscreen {
         view: &View,
         positions: Positions<'_>,
     ) -> Result<Image, GpuError> {
-        let mut enc = device.create_command_encoder(&Default::default());
-        renderer.encode(&mut enc, &self.color, &self.resolve_view, &self.depth, self.size(), camera, view, positions);
-        self.readback.encode_copy(&mut enc, &self.resolve);
-        queue.submit([enc.finish()]);
-        self.readback.read(device, Self::FORMAT)
+        crate::mapping::now(self.render_async(device, queue, renderer, camera, view, positions))
     }
 
     /// [`Offscreen::render`], awaiting the read-back (what a browser needs).
