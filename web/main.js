@@ -2,15 +2,19 @@
 // `window.fissure` (the Sim, its stats, a ready flag, errors).
 import init, { Sim, scene_names, check_frame } from "./pkg/fissure_web.js";
 
-const canvas = document.getElementById("view");
+let canvas = document.getElementById("view");
+const stage = document.getElementById("stage");
 const picker = document.getElementById("scene");
 const status = document.getElementById("status");
 const errorBox = document.getElementById("error");
 // `?paused` loads the scene without running it (the test steps it itself); `?present=copy` draws offscreen and
-// copies each frame into a 2D canvas (for browsers whose WebGPU cannot present to a canvas: headless Chromium).
+// copies each frame into a 2D canvas, for browsers whose WebGPU cannot present to a canvas (headless Chromium on
+// its software adapter loses the device at the first present). Without it the page presents to the canvas and,
+// should the device be lost in the first frames, starts again in copy mode on a fresh canvas and device.
 const params = new URLSearchParams(location.search);
 const api = (window.fissure = {
   sim: null, ready: false, error: null, paused: params.has("paused"), frames: 0, inFrame: false, lastPuncture: null,
+  present: params.get("present") === "copy" ? "copy" : "canvas", fallback: null,
 });
 
 function fail(message) {
@@ -38,7 +42,7 @@ async function load(name) {
   await serial(async () => {
     if (api.sim) api.sim.free();
     api.sim = null;
-    api.sim = await Sim.create(canvas, name, params.get("present") === "copy");
+    api.sim = await Sim.create(canvas, name, api.present === "copy");
     api.sim.set_adapter(api.adapter);
   });
   if (mine !== generation) return;
@@ -49,6 +53,9 @@ async function load(name) {
       api.inFrame = true;
       try {
         await serial(() => api.sim.frame(t));
+      } catch (e) {
+        if (api.present === "canvas" && api.frames < 5) return fallBack(name, e);
+        throw e;
       } finally {
         api.inFrame = false;
       }
@@ -59,7 +66,9 @@ async function load(name) {
         status.textContent =
           `${s.title}\nt = ${s.time.toFixed(2)} s · ${s.fps.toFixed(0)} fps · simulation ${s.sim_ms.toFixed(1)} ms/frame · ` +
           `fracture events ${s.events} · pieces ${s.pieces} · gas volume ${(100 * s.volume / Math.max(s.volume0, 1e-12)).toFixed(0)} %\n` +
-          `WebGPU adapter: ${s.adapter}` + (s.notes.length ? `\n${s.notes.join("\n")}` : "");
+          `WebGPU adapter: ${s.adapter} · drawn ${api.present === "copy" ? "offscreen, copied to the canvas" : "into the canvas"}` +
+          (api.fallback ? ` (the canvas path lost the device: ${api.fallback})` : "") +
+          (s.notes.length ? `\n${s.notes.join("\n")}` : "");
       }
     }
     requestAnimationFrame((t2) => tick(t2).catch(fail));
@@ -68,12 +77,25 @@ async function load(name) {
 }
 api.load = load;
 
+// The device was lost presenting to the canvas: a fresh canvas (one that never had a WebGPU context), a fresh
+// device, and frames drawn offscreen and copied in.
+async function fallBack(name, e) {
+  const why = e && e.message ? e.message : String(e);
+  console.warn(`fissure: drawing into the canvas failed (${why}); drawing offscreen and copying instead`);
+  api.present = "copy";
+  api.fallback = why;
+  const fresh = canvas.cloneNode(false);
+  canvas.replaceWith(fresh);
+  canvas = fresh;
+  await load(name);
+}
+
 function pixel(e) {
   const r = canvas.getBoundingClientRect();
   return [((e.clientX - r.left) * canvas.width) / r.width, ((e.clientY - r.top) * canvas.height) / r.height];
 }
-canvas.addEventListener("contextmenu", (e) => e.preventDefault());
-canvas.addEventListener("mousedown", (e) => {
+stage.addEventListener("contextmenu", (e) => e.preventDefault());
+stage.addEventListener("mousedown", (e) => {
   if (!api.ready) return;
   const [x, y] = pixel(e);
   if (e.button === 2) serial(() => api.sim.puncture(x, y)).then((n) => (api.lastPuncture = n)).catch(fail);
@@ -86,7 +108,7 @@ window.addEventListener("mousemove", (e) => {
   }
 });
 window.addEventListener("mouseup", () => api.ready && serial(() => api.sim.mouse_up()).catch(fail));
-canvas.addEventListener("wheel", (e) => {
+stage.addEventListener("wheel", (e) => {
   e.preventDefault();
   if (api.ready) serial(() => api.sim.zoom(-e.deltaY / 100)).catch(fail);
 }, { passive: false });

@@ -8,8 +8,9 @@ the native GPU backend's (`examples/scene_positions.rs`, lavapipe) within the pa
 `tests/gpu.rs`: RMS difference below 1e-4 of the scene's size.
 
 Headless Chromium's WebGPU runs on its software adapter (SwiftShader) and loses its device at the first present
-to a canvas, so the page draws offscreen and copies each frame into a 2D canvas (`?present=copy`): the same
-renderer, the same state buffers, one read-back per frame more.
+to a canvas. The page is loaded as a user loads it: it presents to the canvas, finds the device lost in its first
+frames, and starts again drawing offscreen and copying each frame into a 2D canvas (the same renderer, the same
+state buffers, one read-back per frame more). The test reports which way each scene was drawn.
 
     .venv/bin/python web/test_page.py [--out DIR]      # DIR: screenshots and results (default target/web-test)
 
@@ -72,7 +73,7 @@ def wait_for(page, expression, timeout_s, what):
 
 
 def open_scene(page, base, scene, extra=""):
-    page.goto(f"{base}/index.html?scene={scene}&present=copy{extra}")
+    page.goto(f"{base}/index.html?scene={scene}{extra}")
     wait_for(page, "() => window.fissure && window.fissure.ready", 120, f"{scene}: loading")
 
 
@@ -85,7 +86,17 @@ def canvas_check(page, scene, out):
     result = page.evaluate(
         """(minBody) => {
             const c = document.getElementById('view');
-            const px = c.getContext('2d').getImageData(0, 0, c.width, c.height).data;
+            let px;
+            if (window.fissure.present === 'copy') {
+                px = c.getContext('2d').getImageData(0, 0, c.width, c.height).data;
+            } else {
+                const copy = document.createElement('canvas');
+                copy.width = c.width;
+                copy.height = c.height;
+                const g = copy.getContext('2d');
+                g.drawImage(c, 0, 0);
+                px = g.getImageData(0, 0, c.width, c.height).data;
+            }
             return window.fissure.check_frame(new Uint8Array(px.buffer), c.width, c.height, minBody);
         }""",
         MIN_BODY[scene],
@@ -160,12 +171,15 @@ def main():
                 fail(f"{scene}: the page does not report its frame rate and adapter: {s}")
             if abs(s["time"] - s["frames"] / 60) > 1e-6 * max(1, s["frames"]):
                 fail(f"{scene}: {s['frames']} frames but {s['time']} s simulated")
+            present = page.evaluate("() => [window.fissure.present, window.fissure.fallback]")
             results.setdefault(scene, {}).update(
                 {"frames": s["frames"], "time": s["time"], "fps": s["fps"], "sim_ms": s["sim_ms"],
-                 "events": s["events"], "adapter": s["adapter"]})
+                 "events": s["events"], "adapter": s["adapter"], "present": present[0], "fallback": present[1]})
+            how = "into the canvas" if present[0] == "canvas" else "offscreen, copied into the canvas" + (
+                f" (after the canvas path failed: {present[1]})" if present[1] else "")
             print(f"{scene}: {s['frames']} frames, t = {s['time']:.3f} s, {s['fps']:.1f} fps, "
-                  f"simulation {s['sim_ms']:.0f} ms/frame, {s['events']} fracture events, adapter {s['adapter']}",
-                  flush=True)
+                  f"simulation {s['sim_ms']:.0f} ms/frame, {s['events']} fracture events, adapter {s['adapter']}, "
+                  f"drawn {how}", flush=True)
 
         # Parity with the native GPU backend: 600 steps of the ball drop, no frames drawn in between.
         open_scene(page, base, "ball_drop", "&paused")

@@ -96,7 +96,8 @@ enum Present {
     },
     /// Drawn into an offscreen texture, read back and put into the canvas's 2D context: for browsers whose
     /// WebGPU cannot present to a canvas (headless Chromium on its software adapter loses the device at the first
-    /// present), at the cost of a read-back per frame. `?present=copy` on the page.
+    /// present), at the cost of a read-back per frame. `?present=copy` on the page, which also falls back to it
+    /// on a fresh canvas and device when the canvas path loses its device in the first frames.
     Copy { target: Offscreen, ctx: web_sys::CanvasRenderingContext2d },
 }
 
