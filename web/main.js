@@ -65,7 +65,8 @@ async function load(name) {
         api.stats = s;
         status.textContent =
           `${s.title}\nt = ${s.time.toFixed(2)} s · ${s.fps.toFixed(0)} fps · simulation ${s.sim_ms.toFixed(1)} ms/frame · ` +
-          `fracture events ${s.events} · pieces ${s.pieces} · gas volume ${(100 * s.volume / Math.max(s.volume0, 1e-12)).toFixed(0)} %\n` +
+          `fracture events ${s.events} · pieces ${s.pieces}` +
+          (s.volume0 > 0 ? ` · gas volume ${(100 * s.volume / s.volume0).toFixed(0)} %` : "") + "\n" +
           `WebGPU adapter: ${s.adapter} · drawn ${api.present === "copy" ? "offscreen, copied to the canvas" : "into the canvas"}` +
           (api.fallback ? ` (the canvas path lost the device: ${api.fallback})` : "") +
           (s.notes.length ? `\n${s.notes.join("\n")}` : "");

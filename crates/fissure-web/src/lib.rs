@@ -29,10 +29,12 @@ use glam::Vec3;
 use wasm_bindgen::prelude::*;
 
 /// The scenes the page offers: the repository's scene files, embedded (the same TOML `fissure run` reads).
-const SCENES: [(&str, &str); 3] = [
+/// The seed's three first; then a cloth pulled apart by its handles, to tear further by dragging.
+const SCENES: [(&str, &str); 4] = [
     ("fracture", include_str!("../../../scenes/fracture.toml")),
     ("ball_drop", include_str!("../../../scenes/ball_drop.toml")),
     ("cloth_wind", include_str!("../../../scenes/cloth_wind.toml")),
+    ("cloth_tear", include_str!("../../../scenes/cloth_tear.toml")),
 ];
 
 /// Steps between two fracture passes in the page: each pass that finds candidates reads the state back, and a
