@@ -313,16 +313,14 @@ impl World<f32> {
     }
 }
 
-/// The result of `f`, which every backend that can wait for its device (the CPU; a GPU off the web) finishes at its
-/// first poll; a backend that must await a read-back (WebGPU in a browser) gets an error naming the async method.
+/// The result of `f` on every backend that can wait for its device ([`ready_now`]); on one that must await a
+/// read-back (WebGPU in a browser) an error naming the async methods.
 fn now<T>(f: impl std::future::Future<Output = Result<T, StepError>>) -> Result<T, StepError> {
-    let mut f = std::pin::pin!(f);
-    match f.as_mut().poll(&mut std::task::Context::from_waker(std::task::Waker::noop())) {
-        std::task::Poll::Ready(r) => r,
-        std::task::Poll::Pending => Err(StepError::Backend(
+    ready_now(f).unwrap_or_else(|| {
+        Err(StepError::Backend(
             "this backend reads back asynchronously (WebGPU in a browser): use World::advance_async, step_async or break_core_async".into(),
-        )),
-    }
+        ))
+    })
 }
 
 fn check_dt(dt: f64) -> Result<(), StepError> {

@@ -16,13 +16,7 @@ pub(super) struct Drag {
 impl App {
     pub(super) fn drag_target(&self, plane_point: Vec3) -> Vec3 {
         let (w, h) = self.size();
-        let (o, d) = self.camera.ray(self.cursor.0, self.cursor.1, w, h);
-        let n = (self.camera.eye() - self.camera.target).normalize();
-        let denom = d.dot(n);
-        if denom.abs() < 1e-6 {
-            return plane_point;
-        }
-        o + d * ((plane_point - o).dot(n) / denom)
+        self.camera.drag_target(self.cursor.0, self.cursor.1, w, h, plane_point)
     }
 
     /// Grabs particle `i` (not one already pinned or on a handle) through [`crate::World::grab`]; the pin is

@@ -29,7 +29,6 @@ use crate::gpu::render::{Camera, Offscreen, Positions, Readback, Renderer, View,
 use crate::gpu::{GpuError, wgpu};
 use crate::output::{OutputError, save_png};
 use crate::{FractureKind, Stage, StepError, TopologyDelta, World};
-use glam::Vec3;
 use std::path::PathBuf;
 use std::sync::Arc;
 use std::time::Instant;
@@ -294,19 +293,8 @@ impl App {
 
     /// Where the centre of body `b` is on screen \[px\].
     fn body_center_px(&self, b: usize) -> Option<(f32, f32)> {
-        let w = &self.world;
-        let (mut sum, mut n) = (Vec3::ZERO, 0.0f32);
-        for (q, body) in w.state.particle_q.iter().zip(&w.model.particle_body) {
-            if *body as usize == b {
-                sum += *q;
-                n += 1.0;
-            }
-        }
-        let (width, height) = self.size();
-        if n == 0.0 {
-            return None;
-        }
-        self.camera.project(sum / n, width, height).map(|(x, y, _)| (x, y))
+        let (w, h) = self.size();
+        self.camera.body_pixel(&self.world.model, &self.world.state.particle_q, b as u32, w, h)
     }
 
     fn puncture(&mut self, x: f32, y: f32) {

@@ -34,17 +34,16 @@ impl std::future::Future for Mapped {
     }
 }
 
-/// The result of a read-back future, which off the web is ready at its first poll (the device was waited on);
-/// on the web an error naming the async method instead of blocking the browser's only thread.
+/// The result of a read-back future, which off the web is ready at its first poll (the device was waited on;
+/// [`fissure_core::ready_now`]); on the web an error naming the async methods instead of blocking the browser's
+/// only thread.
 pub(crate) fn now<T, E: From<GpuError>>(f: impl std::future::Future<Output = Result<T, E>>) -> Result<T, E> {
-    let mut f = std::pin::pin!(f);
-    match f.as_mut().poll(&mut Context::from_waker(Waker::noop())) {
-        Poll::Ready(r) => r,
-        Poll::Pending => Err(GpuError::Readback(
+    fissure_core::ready_now(f).unwrap_or_else(|| {
+        Err(GpuError::Readback(
             "a read-back cannot be waited for here (WebGPU in a browser): use the async methods (run_async, read_state_async, World::advance_async)".into(),
         )
-        .into()),
-    }
+        .into())
+    })
 }
 
 /// Maps the first `bytes` of `buffer` (`MAP_READ`, after the submission that fills it) and returns the mapped

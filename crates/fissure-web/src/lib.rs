@@ -327,17 +327,9 @@ impl Sim {
     /// Where the centre of body `b` is on the canvas \[px\] (`[x, y]`; empty when it is behind the camera).
     pub fn body_pixel(&self, b: u32) -> Result<Vec<f32>, JsValue> {
         let s = self.inner()?;
-        let w = &s.world;
-        let (mut sum, mut n) = (Vec3::ZERO, 0.0f32);
-        for (q, body) in w.state.particle_q.iter().zip(&w.model.particle_body) {
-            if *body == b {
-                sum += *q;
-                n += 1.0;
-            }
-        }
-        let (width, height) = (s.size[0] as f32, s.size[1] as f32);
-        Ok(if n == 0.0 { None } else { s.camera.project(sum / n, width, height) }
-            .map_or_else(Vec::new, |(x, y, _)| vec![x, y]))
+        let (w, h) = (s.size[0] as f32, s.size[1] as f32);
+        let at = s.camera.body_pixel(&s.world.model, &s.world.state.particle_q, b, w, h);
+        Ok(at.map_or_else(Vec::new, |(x, y)| vec![x, y]))
     }
 
     /// Names the adapter in the overlay and the stats (a browser's WebGPU tells the page, not wgpu, its name).
@@ -438,13 +430,7 @@ impl Inner {
     /// Where the pointer at `(x, y)` is in the plane through `p` facing the camera.
     fn drag_target(&self, x: f32, y: f32, p: Vec3) -> Vec3 {
         let (w, h) = (self.size[0] as f32, self.size[1] as f32);
-        let (o, d) = self.camera.ray(x, y, w, h);
-        let n = (self.camera.eye() - self.camera.target).normalize();
-        let denom = d.dot(n);
-        if denom.abs() < 1e-6 {
-            return p;
-        }
-        o + d * ((p - o).dot(n) / denom)
+        self.camera.drag_target(x, y, w, h, p)
     }
 
     /// Steers the grabbed point's pin towards the pointer over the coming frame.

@@ -104,6 +104,17 @@ impl SolverConfig {
 /// [`Solver::sync_state_async`] return.
 pub type LocalFuture<'a, T> = std::pin::Pin<Box<dyn std::future::Future<Output = T> + 'a>>;
 
+/// The output of `f` if it completes at its first poll, else `None`. What the synchronous twins of the async
+/// stepping methods use: every backend that can wait for its device (the CPU, a GPU off the web) finishes their
+/// futures at once; WebGPU in a browser does not, and the caller reports that instead of blocking.
+pub fn ready_now<T>(f: impl std::future::Future<Output = T>) -> Option<T> {
+    let mut f = std::pin::pin!(f);
+    match f.as_mut().poll(&mut std::task::Context::from_waker(std::task::Waker::noop())) {
+        std::task::Poll::Ready(out) => Some(out),
+        std::task::Poll::Pending => None,
+    }
+}
+
 /// What every solver (CPU, GPU) offers.
 ///
 /// `World` (in the `fissure` facade) drives a solver through this trait and is the one place that sequences

@@ -120,6 +120,34 @@ impl Camera {
         }
         best.map(|b| b.1)
     }
+
+    /// Where pixel `(x, y)` of a `width` × `height` view points in the plane through `plane_point` facing the
+    /// camera (where a grabbed point is dragged to).
+    pub fn drag_target(&self, x: f32, y: f32, width: f32, height: f32, plane_point: Vec3) -> Vec3 {
+        let (o, d) = self.ray(x, y, width, height);
+        let n = (self.eye() - self.target).normalize();
+        let denom = d.dot(n);
+        if denom.abs() < 1e-6 {
+            return plane_point;
+        }
+        o + d * ((plane_point - o).dot(n) / denom)
+    }
+
+    /// The pixel `(x, y)` of the centre of body `b` (the mean of its particles' positions `q`), or `None` when it
+    /// has none or is behind the camera.
+    pub fn body_pixel(&self, model: &Model<f32>, q: &[Vec3], b: u32, width: f32, height: f32) -> Option<(f32, f32)> {
+        let (mut sum, mut n) = (Vec3::ZERO, 0.0f32);
+        for (p, body) in q.iter().zip(&model.particle_body) {
+            if *body == b {
+                sum += *p;
+                n += 1.0;
+            }
+        }
+        if n == 0.0 {
+            return None;
+        }
+        self.project(sum / n, width, height).map(|(x, y, _)| (x, y))
+    }
 }
 
 #[repr(C)]

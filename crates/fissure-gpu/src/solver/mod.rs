@@ -88,9 +88,31 @@ struct Kernels {
     layouts: Vec<wgpu::BindGroupLayout>,
 }
 
-/// The index of kernel `name` in [`KERNEL_BINDINGS`].
-fn kernel(name: &str) -> usize {
-    KERNEL_BINDINGS.iter().position(|(n, _)| *n == name).expect("every kernel is in KERNEL_BINDINGS")
+/// The index of kernel `name` in [`KERNEL_BINDINGS`], found at compile time through [`k!`] (a name missing from
+/// the table does not compile; encoding a substep looks nothing up).
+const fn kernel(name: &str) -> usize {
+    let mut k = 0;
+    while k < KERNEL_BINDINGS.len() {
+        let (a, b) = (KERNEL_BINDINGS[k].0.as_bytes(), name.as_bytes());
+        if a.len() == b.len() {
+            let mut i = 0;
+            while i < a.len() && a[i] == b[i] {
+                i += 1;
+            }
+            if i == a.len() {
+                return k;
+            }
+        }
+        k += 1;
+    }
+    panic!("a kernel missing from KERNEL_BINDINGS")
+}
+
+/// The index of a kernel, as a constant.
+macro_rules! k {
+    ($name:literal) => {
+        const { kernel($name) }
+    };
 }
 
 /// Buffers that depend on the model's size (everything but the state and the mirrors).
@@ -444,20 +466,14 @@ impl GpuSolver {
         self.queue.write_buffer(&self.clock, 0, &bytes);
     }
 
-    fn dispatch(
-        &mut self,
-        pass: &mut wgpu::ComputePass<'_>,
-        name: &'static str,
-        cur: usize,
-        clock: usize,
-        n: (u32, u32),
-    ) {
-        let k = kernel(name);
+    /// Encodes kernel `k` (an index of [`KERNEL_BINDINGS`], from [`k!`]) reading state `cur`, with clock entry
+    /// `clock`, over `n` workgroups.
+    fn dispatch(&mut self, pass: &mut wgpu::ComputePass<'_>, k: usize, cur: usize, clock: usize, n: (u32, u32)) {
         pass.set_pipeline(&self.kernels.pipelines[k]);
         pass.set_bind_group(0, &self.bind[k][cur], &[]);
         pass.set_bind_group(1, &self.clock_bind, &[(clock as u64 * CLOCK_STRIDE) as u32]);
         pass.dispatch_workgroups(n.0, n.1, 1);
-        self.passes.push(name);
+        self.passes.push(KERNEL_BINDINGS[k].0);
     }
 
     /// Encodes the surface pass on state buffer `cur` (with the clock entry `clock`): crosses and volume
@@ -472,20 +488,20 @@ impl GpuSolver {
         forces: bool,
     ) {
         let nt = groups(m.tri_count());
-        self.dispatch(pass, "surface_cross", cur, clock, nt);
+        self.dispatch(pass, k!("surface_cross"), cur, clock, nt);
         if self.packed.n_caps > 0 {
-            self.dispatch(pass, "surface_caps", cur, clock, groups(self.packed.n_caps as usize));
+            self.dispatch(pass, k!("surface_caps"), cur, clock, groups(self.packed.n_caps as usize));
         }
         if self.packed.n_gas > 0 {
-            self.dispatch(pass, "surface_volume", cur, clock, (self.packed.n_gas, 1));
+            self.dispatch(pass, k!("surface_volume"), cur, clock, (self.packed.n_gas, 1));
         }
         if !forces {
-            self.dispatch(pass, "surface_pressure", cur, clock, nt);
+            self.dispatch(pass, k!("surface_pressure"), cur, clock, nt);
             return;
         }
-        self.dispatch(pass, "surface_force", cur, clock, nt);
+        self.dispatch(pass, k!("surface_force"), cur, clock, nt);
         if self.packed.n_caps > 0 {
-            self.dispatch(pass, "cap_force", cur, clock, groups(self.particle_count()));
+            self.dispatch(pass, k!("cap_force"), cur, clock, groups(self.particle_count()));
         }
     }
 
@@ -501,22 +517,22 @@ impl GpuSolver {
                 if surface {
                     self.encode_surface(pass, m, cur, c0, true);
                 }
-                self.dispatch(pass, "integrate_verlet_first", cur, c0, np);
+                self.dispatch(pass, k!("integrate_verlet_first"), cur, c0, np);
                 if surface {
                     self.encode_surface(pass, m, 1 - cur, c1, true);
                 }
-                self.dispatch(pass, "integrate_verlet_second", 1 - cur, c1, np);
+                self.dispatch(pass, k!("integrate_verlet_second"), 1 - cur, c1, np);
                 if colliders {
-                    self.dispatch(pass, "collide", 1 - cur, c1, np);
+                    self.dispatch(pass, k!("collide"), 1 - cur, c1, np);
                 }
             }
             _ => {
                 if surface {
                     self.encode_surface(pass, m, cur, c0, true);
                 }
-                self.dispatch(pass, "integrate_symplectic_euler", cur, c0, np);
+                self.dispatch(pass, k!("integrate_symplectic_euler"), cur, c0, np);
                 if colliders {
-                    self.dispatch(pass, "collide", cur, c1, np);
+                    self.dispatch(pass, k!("collide"), cur, c1, np);
                 }
                 self.cur = 1 - cur;
             }
@@ -524,13 +540,13 @@ impl GpuSolver {
         if self.packed.any_strain_limit || self.packed.any_load_limit {
             let cur = self.cur;
             if self.packed.any_strain_limit {
-                self.dispatch(pass, "strain_check", cur, c1, groups(m.spring_count()));
+                self.dispatch(pass, k!("strain_check"), cur, c1, groups(m.spring_count()));
             }
             if self.packed.any_load_limit {
                 if self.packed.n_gas > 0 {
                     self.encode_surface(pass, m, cur, c1, false);
                 }
-                self.dispatch(pass, "load_check", cur, c1, np);
+                self.dispatch(pass, k!("load_check"), cur, c1, np);
             }
         }
     }
@@ -572,7 +588,7 @@ impl GpuSolver {
             }
             if self.config.check_finite {
                 let last = 2 * steps.max(1) - 1;
-                self.dispatch(&mut pass, "finite_check", self.cur, last, groups(self.particle_count()));
+                self.dispatch(&mut pass, k!("finite_check"), self.cur, last, groups(self.particle_count()));
             }
         }
         let read = self.config.check_finite || m.has_fracture();
@@ -631,7 +647,7 @@ impl GpuSolver {
             if m.has_pressure() || m.has_wind() {
                 self.encode_surface(&mut pass, m, cur, 0, true);
             }
-            self.dispatch(&mut pass, "net_forces", cur, 0, groups(self.particle_count()));
+            self.dispatch(&mut pass, k!("net_forces"), cur, 0, groups(self.particle_count()));
         }
         self.queue.submit([enc.finish()]);
         let f = crate::mapping::now(self.read_vec4(&self.state[1 - self.cur], 2 * self.particle_count()))?;
