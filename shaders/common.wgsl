@@ -21,6 +21,10 @@ struct Params {
     wind_p: vec4<f32>,
     // candidate capacity (per kind), 0, 0, 0
     misc: vec4<u32>,
+    // contact (contact.wgsl): largest thickness h_max [m], grid cell [m], fixed-point units per m/s, 0
+    contact_f: vec4<f32>,
+    // contact: edges, buckets per grid - 1 (a power of two less one), pair capacity, 0
+    contact_n: vec4<u32>,
 }
 
 // One per substep, selected by a dynamic offset: nothing is written between substeps of a submission.
@@ -121,6 +125,34 @@ struct Collider {
 @group(0) @binding(18) var<storage, read_write> cap_f: array<vec4<f32>>;
 // [spring count, vertex count, non-finite flag, 0, spring ids (capacity), vertex ids (capacity)]
 @group(0) @binding(19) var<storage, read_write> candidates: array<atomic<u32>>;
+
+// Contact between surfaces (contact.wgsl; bound only by its kernels, and empty when the model has no contact).
+// Per particle: origin (the particle it was split from), body, 1 if it is a corner of a contact triangle, 0.
+@group(0) @binding(20) var<storage, read> c_part: array<vec4<u32>>;
+// Per body: contact thickness [m] (0: no contact), friction, 1 if it collides with itself, 0.
+@group(0) @binding(21) var<storage, read> c_body: array<vec4<f32>>;
+// The unique edges of the contact triangles (lower index first).
+@group(0) @binding(22) var<storage, read> c_edges: array<vec2<u32>>;
+// Positions at the start of the substep.
+@group(0) @binding(23) var<storage, read_write> c_x0: array<vec4<f32>>;
+// The two hash grids (vertices, edge midpoints): counts [0, 2B), bucket starts [2B, 4B + 1), items after them.
+@group(0) @binding(24) var<storage, read_write> c_grid: array<atomic<u32>>;
+// The pairs within reach this substep.
+@group(0) @binding(25) var<storage, read_write> c_pairs: array<Pair>;
+// [pairs this substep, largest move (f32 bits), longest half edge (f32 bits), most pairs wanted past the capacity,
+//  pairs pushed (summed), pairs within reach (summed), particles capped (summed), substeps]
+@group(0) @binding(26) var<storage, read_write> c_ctl: array<atomic<u32>>;
+// Per particle, 8 words: velocity change (fixed point) xyz, this iteration's change xyz, bound (f32 bits), pairs.
+@group(0) @binding(27) var<storage, read_write> c_acc: array<atomic<i32>>;
+
+// A contact pair: four particles and weights (`Σ w x` runs from the second element to the first), the normal and
+// gap, then thickness, friction, `Σ w² / m` and the accumulated normal impulse.
+struct Pair {
+    p: vec4<u32>,
+    w: vec4<f32>,
+    nd: vec4<f32>,
+    hmj: vec4<f32>,
+}
 
 @group(1) @binding(0) var<uniform> clock: Clock;
 

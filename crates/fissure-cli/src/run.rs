@@ -376,11 +376,16 @@ fn print_summary(scene: &Scene, cfg: &RunConfig, s: &RunSummary) {
         let v: f64 = w.model.body_volumes(&w.state).iter().sum();
         println!("| gas volume | {:.3} l |", v * 1e3);
     }
-    if let Some(c) = w.solver.as_any().downcast_ref::<fissure::CpuSolver<f32>>().filter(|_| w.model.has_contact()) {
-        let c = c.contact_stats();
+    let any = w.solver.as_any();
+    let contact = match (any.downcast_ref::<fissure::CpuSolver<f32>>(), any.downcast_ref::<GpuSolver>()) {
+        (Some(c), _) => Some((c.contact_stats(), "candidate lists built")),
+        (_, Some(g)) => Some((g.contact_stats(), "grids built (one per substep on the GPU)")),
+        _ => None,
+    };
+    if let Some((c, built)) = contact.filter(|_| w.model.has_contact()) {
         let per = |x: u64| x as f64 / c.steps.max(1) as f64;
         println!(
-            "| contact | {:.1} pairs within reach and {:.1} pushed per step, {} candidate lists built, {} moves capped |",
+            "| contact | {:.1} pairs within reach and {:.1} pushed per step, {} {built}, {} moves capped |",
             per(c.near_total),
             per(c.pushed_total),
             c.builds,

@@ -28,6 +28,10 @@ pub struct Params {
     pub wind_p: [f32; 4],
     /// candidate capacity per kind, triangle forces present, caps present, 0.
     pub misc: [u32; 4],
+    /// Contact: largest thickness \[m\], grid cell \[m\], fixed-point units per m/s, 0.
+    pub contact_f: [f32; 4],
+    /// Contact: edges, buckets per grid less one (a power of two less one), pair capacity, 0.
+    pub contact_n: [u32; 4],
 }
 
 /// One clock entry (`Clock` in WGSL), stored at a 256-byte stride and selected by a dynamic offset.
@@ -169,6 +173,66 @@ pub(crate) struct Packed {
     pub any_strain_limit: bool,
     pub any_load_limit: bool,
     pub tri_offset: usize,
+    pub contact: ContactPack,
+}
+
+/// The model's contact elements as `contact.wgsl` reads them (empty without contact).
+#[derive(Clone, Debug, Default)]
+pub(crate) struct ContactPack {
+    /// Per particle: origin, body, 1 if a corner of a contact triangle, 0.
+    pub part: Vec<[u32; 4]>,
+    /// Per body: thickness \[m\] (0: none), friction, 1 if against itself, 0.
+    pub body: Vec<[f32; 4]>,
+    /// The unique edges of the contact triangles, lower index first, sorted.
+    pub edges: Vec<[u32; 2]>,
+    /// Particles in contact.
+    pub particles: usize,
+    /// Largest thickness \[m\].
+    pub h_max: f32,
+    /// Grid cell \[m\]: the contact edges' mean length at the model's initial positions, at least 2 h_max.
+    pub cell: f32,
+}
+
+impl ContactPack {
+    pub fn new(m: &Model<f32>) -> Self {
+        if !m.has_contact() {
+            return ContactPack::default();
+        }
+        let on = |b: u32| m.body_contact_thickness[b as usize] > 0.0;
+        let mut part: Vec<[u32; 4]> =
+            (0..m.particle_count()).map(|i| [m.particle_origin[i], m.particle_body[i], 0, 0]).collect();
+        let mut edges = Vec::new();
+        for (t, &[a, b, c]) in m.tri_indices.iter().enumerate() {
+            if on(m.tri_body[t]) {
+                for (i, j) in [(a, b), (b, c), (c, a)] {
+                    edges.push([i.min(j), i.max(j)]);
+                }
+                for v in [a, b, c] {
+                    part[v as usize][2] = 1;
+                }
+            }
+        }
+        edges.sort_unstable();
+        edges.dedup();
+        let body = (0..m.body_count())
+            .map(|b| {
+                let self_contact = if m.body_self_contact[b] { 1.0 } else { 0.0 };
+                [m.body_contact_thickness[b], m.body_contact_friction[b], self_contact, 0.0]
+            })
+            .collect();
+        let h_max = m.body_contact_thickness.iter().copied().fold(0.0, f32::max);
+        let q = &m.particle_q0;
+        let sum: f64 = edges.iter().map(|&[i, j]| (q[j as usize] - q[i as usize]).length() as f64).sum();
+        let l_mean = (sum / edges.len().max(1) as f64) as f32;
+        let particles = part.iter().filter(|p| p[2] != 0).count();
+        ContactPack { part, body, edges, particles, h_max, cell: l_mean.max(2.0 * h_max).max(1e-6) }
+    }
+
+    /// Buckets per grid: a power of two, at least twice the larger grid's items and at least 128 (the scan
+    /// kernel's chunks).
+    pub fn buckets(&self) -> usize {
+        (2 * self.particles.max(self.edges.len())).next_power_of_two().max(128)
+    }
 }
 
 /// Particle `i` as the kernels read it, with its adjacency header: its spring row, then its triangle row (offset
@@ -221,6 +285,7 @@ impl Packed {
         p.any_strain_limit = p.springs.iter().any(|s| s.strain_limit >= 0.0);
         p.tris.extend((0..m.tri_count()).map(|t| pack_tri(m, t)));
         p.pack_bodies(m);
+        p.contact = ContactPack::new(m);
         p
     }
 
@@ -282,7 +347,7 @@ impl Packed {
 }
 
 /// The uniform for `m`; `rows` is the number of partial-sum rows of the triangle dispatch.
-pub(crate) fn params(m: &Model<f32>, p: &Packed, rows: u32, capacity: u32) -> Params {
+pub(crate) fn params(m: &Model<f32>, p: &Packed, rows: u32, capacity: u32, pairs: u32) -> Params {
     let g = m.gravity.to_vec3();
     let projected = if m.damping_model == DampingModel::Projected { 1.0 } else { 0.0 };
     let surface = m.has_pressure() || m.has_wind();
@@ -300,8 +365,14 @@ pub(crate) fn params(m: &Model<f32>, p: &Packed, rows: u32, capacity: u32) -> Pa
         wind_u,
         wind_p,
         misc: [capacity, surface as u32, (p.n_caps > 0) as u32, 0],
+        contact_f: [p.contact.h_max, p.contact.cell, CONTACT_FIXED, 0.0],
+        contact_n: [p.contact.edges.len() as u32, p.contact.buckets() as u32 - 1, pairs, 0],
     }
 }
+
+/// Fixed-point units per m/s of the contact kernels' velocity sums (2^20: a resolution of 1e-6 m/s, a range of
+/// ±2,000 m/s).
+pub const CONTACT_FIXED: f32 = 1_048_576.0;
 
 /// Colliders packed for the kernels; triangle meshes and other general shapes are baked into `sdf`.
 pub(crate) fn pack_colliders(

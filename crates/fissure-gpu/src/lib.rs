@@ -48,11 +48,12 @@ pub use solver::{Candidates, GpuConfig, GpuSolver, RunReport};
 pub use wgpu;
 
 /// The WGSL files of the solver, in the order they are concatenated after `common.wgsl`.
-pub const SHADERS: [(&str, &str); 4] = [
+pub const SHADERS: [(&str, &str); 5] = [
     ("integrate.wgsl", include_str!("../../../shaders/integrate.wgsl")),
     ("surface.wgsl", include_str!("../../../shaders/surface.wgsl")),
     ("collide.wgsl", include_str!("../../../shaders/collide.wgsl")),
     ("fracture.wgsl", include_str!("../../../shaders/fracture.wgsl")),
+    ("contact.wgsl", include_str!("../../../shaders/contact.wgsl")),
 ];
 
 /// The storage buffers each kernel binds (bindings of group 0 in `common.wgsl`; every kernel also gets the uniform
@@ -60,7 +61,7 @@ pub const SHADERS: [(&str, &str); 4] = [
 /// than 8 storage buffers, WebGPU's default `maxStorageBuffersPerShaderStage` (what a browser grants without
 /// asking): one layout with all 19 would need a device that allows 19. `tests/wgsl.rs` checks the table against
 /// what naga finds each entry point using.
-pub const KERNEL_BINDINGS: [(&str, &[u32]); 14] = [
+pub const KERNEL_BINDINGS: [(&str, &[u32]); 26] = [
     ("integrate_symplectic_euler", &FORCE_GATHER),
     ("integrate_verlet_first", &FORCE_GATHER),
     ("integrate_verlet_second", &FORCE_GATHER),
@@ -75,14 +76,30 @@ pub const KERNEL_BINDINGS: [(&str, &[u32]); 14] = [
     ("collide", &[2, 3, 13, 14]),
     ("strain_check", &[1, 5, 6, 19]),
     ("load_check", &[1, 3, 4, 5, 6, 9, 19]),
+    ("contact_save", &[1, 20, 23, 24, 26]),
+    ("contact_edges", &[1, 22, 24, 26]),
+    ("contact_scan", &[24]),
+    ("contact_scatter", &[20, 22, 23, 24]),
+    ("contact_moves", &[2, 20, 23, 26]),
+    ("contact_vt", &[3, 7, 20, 21, 23, 24, 25, 26]),
+    ("contact_ee", &[3, 20, 21, 22, 23, 24, 25, 26]),
+    ("contact_prep", &[25, 26, 27]),
+    ("contact_jacobi", &CONTACT_IMPULSE),
+    ("contact_friction", &CONTACT_IMPULSE),
+    ("contact_carry", &[27]),
+    ("contact_apply", &[2, 3, 23, 26, 27]),
 ];
+
+/// What the contact impulse kernels read and write: the state after the step, particles, the pairs, the contact
+/// counters, the per-particle accumulators.
+const CONTACT_IMPULSE: [u32; 5] = [2, 3, 25, 26, 27];
 
 /// What the per-particle force gather reads and writes: both states, particles, adjacency, springs, their ends,
 /// the triangles' corner forces and the caps' forces.
 const FORCE_GATHER: [u32; 8] = [1, 2, 3, 4, 5, 6, 9, 18];
 
 /// Storage buffers of `common.wgsl` written by some kernel (declared `read_write`); the rest are read-only.
-pub const READ_WRITE_BINDINGS: [u32; 8] = [2, 8, 9, 11, 12, 17, 18, 19];
+pub const READ_WRITE_BINDINGS: [u32; 13] = [2, 8, 9, 11, 12, 17, 18, 19, 23, 24, 25, 26, 27];
 
 /// The declarations every kernel file shares (bindings, structs, helpers).
 pub const COMMON_WGSL: &str = include_str!("../../../shaders/common.wgsl");
@@ -140,11 +157,16 @@ pub enum GpuError {
         "the GPU solver runs symplectic Euler and velocity Verlet; {0} runs on the CPU solver only (fissure_core::CpuSolver)"
     )]
     UnsupportedIntegrator(&'static str),
-    /// The model has contact between surfaces, which has no GPU kernels yet.
+    /// More contact pairs came within reach in one substep than the pair buffer holds: pairs were missed.
     #[error(
-        "contact between surfaces (ModelBuilder::set_contact, the scene keys `contact`/`self_collision`) runs on the CPU solver only for now (fissure_core::CpuSolver, `--backend cpu`)"
+        "{wanted} contact pairs came within reach in one substep, but the pair buffer holds {capacity}: some were missed; raise GpuConfig::contact_capacity"
     )]
-    UnsupportedContact,
+    ContactCapacity {
+        /// Pairs found in the worst substep.
+        wanted: u32,
+        /// The buffer's capacity.
+        capacity: u32,
+    },
     /// The model has more moving pins than a clock entry holds ([`MAX_GPU_HANDLES`]).
     #[error(
         "more than 15 moving pins (ModelBuilder::add_handle, the scene's `[[body.handle]]`): the GPU clock holds 15; use the CPU solver (`--backend cpu`)"

@@ -665,6 +665,13 @@ impl<R: Real> CpuSolver<R> {
         self.ct.stats
     }
 
+    /// The contact pairs within reach in the last step, in the pass's order: each pair's four particles (a vertex
+    /// then its triangle's corners, or one edge's ends then the other's) and its gap at the start of the step
+    /// \[m\]. For comparisons with the GPU pass (`fissure_gpu::GpuSolver::contact_pairs`).
+    pub fn contact_pairs(&self) -> Vec<([u32; 4], f64)> {
+        self.ct.pairs.iter().map(|p| (p.p, p.d)).collect()
+    }
+
     /// Rebuilds the contact candidate lists at every step instead of keeping them while they are valid. The
     /// result is the same to the bit (the pairs within reach are listed in index order whenever the list was
     /// built, so a valid list and a fresh one give the same pairs in the same order); only the cost differs. For

@@ -56,6 +56,14 @@ impl GpuSolver {
             17 => &s.cap_data,
             18 => &s.cap_f,
             19 => &self.candidates,
+            20 => &self.c_part.buffer,
+            21 => &self.c_body.buffer,
+            22 => &self.c_edges.buffer,
+            23 => &s.c_x0,
+            24 => &s.c_grid,
+            25 => &s.c_pairs,
+            26 => &s.c_ctl,
+            27 => &s.c_acc,
             _ => unreachable!("common.wgsl has no binding {binding}"),
         }
     }

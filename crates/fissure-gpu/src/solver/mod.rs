@@ -11,6 +11,8 @@
 //! | `surface_volume` | gas |
 //! | `integrate_symplectic_euler` or `integrate_verlet_first` + `integrate_verlet_second` | always |
 //! | `collide` | colliders |
+//! | `contact_save`, `contact_edges`, `contact_scan`, `contact_scatter` (before the integrator) | contact |
+//! | `contact_moves`, `contact_vt`, `contact_ee`, `contact_prep`, `contact_iterations` × (`contact_jacobi`, `contact_carry`), `contact_friction`, `contact_carry`, `contact_apply` | contact |
 //! | `strain_check` / `surface_pressure` + `load_check` | breakable springs / vertices (the pressure pass: gas) |
 //! | `finite_check` | once per submission, with `check_finite` |
 //!
@@ -47,6 +49,11 @@ pub struct GpuConfig {
     pub candidate_capacity: u32,
     /// Cells along the longest side of a baked signed-distance grid (triangle-mesh colliders). Default 64.
     pub sdf_cells: u32,
+    /// Contact pairs one substep can hold; 0 (default): 4 per particle in contact plus 1,024. A substep that
+    /// finds more fails the run with [`GpuError::ContactCapacity`].
+    pub contact_capacity: u32,
+    /// Jacobi iterations of the contact impulses per substep. Default 16.
+    pub contact_iterations: u32,
 }
 
 impl Default for GpuConfig {
@@ -56,6 +63,8 @@ impl Default for GpuConfig {
             check_finite: true,
             candidate_capacity: 4096,
             sdf_cells: 64,
+            contact_capacity: 0,
+            contact_iterations: 16,
         }
     }
 }
@@ -123,9 +132,18 @@ struct Scratch {
     partials: wgpu::Buffer,
     cap_data: wgpu::Buffer,
     cap_f: wgpu::Buffer,
-    /// (triangles, bodies, partial floats, openings, particles with cap forces) they hold.
-    sized: [usize; 5],
+    c_x0: wgpu::Buffer,
+    c_grid: wgpu::Buffer,
+    c_pairs: wgpu::Buffer,
+    c_ctl: wgpu::Buffer,
+    c_acc: wgpu::Buffer,
+    /// (triangles, bodies, partial floats, openings, particles with cap forces, particles in a contact model, grid
+    /// words, contact pairs) they hold.
+    sized: [usize; SCRATCH],
 }
+
+/// Entries of [`Scratch::sized`].
+const SCRATCH: usize = 8;
 
 /// The wgpu solver (f32). See the module docs.
 pub struct GpuSolver {
@@ -151,6 +169,9 @@ pub struct GpuSolver {
     openings: Mirror<u32>,
     spring_ends: Mirror<[u32; 2]>,
     caps: Mirror<u32>,
+    c_part: Mirror<[u32; 4]>,
+    c_body: Mirror<[f32; 4]>,
+    c_edges: Mirror<[u32; 2]>,
     colliders: Mirror<GpuCollider>,
     sdf: Mirror<f32>,
     scratch: Scratch,
@@ -166,6 +187,8 @@ pub struct GpuSolver {
     state_stale: bool,
     /// What the last submission found.
     last_report: RunReport,
+    /// The contact pass's counts (see [`GpuSolver::contact_stats`]).
+    contact_stats: fissure_core::ContactStats,
     passes: Vec<&'static str>,
     last_upload: usize,
     /// Elements (particles, rows, springs, triangles, bodies, ...) re-packed by the last model sync.
@@ -192,14 +215,22 @@ fn groups(n: usize) -> (u32, u32) {
 }
 
 /// Entries the scratch buffers need: triangles (with a surface pass), bodies, volume partials, capped openings,
-/// particles (with caps).
-fn scratch_sizes(m: &Model<f32>, p: &Packed) -> [usize; 5] {
+/// particles (with caps), particles (with contact), contact grid words, contact pairs (`capacity`, 0: automatic).
+fn scratch_sizes(m: &Model<f32>, p: &Packed, capacity: u32) -> [usize; SCRATCH] {
     let surface = m.has_pressure() || m.has_wind();
     let nt = if surface { m.tri_count() } else { 0 };
     let (gx, gy) = groups(m.tri_count());
     let np = if p.n_gas > 0 { (gx * gy * p.n_gas) as usize } else { 0 };
     let caps = p.n_caps as usize;
-    [nt, m.body_count(), np, caps, if caps > 0 { m.particle_count() } else { 0 }]
+    let c = &p.contact;
+    let contact = !c.edges.is_empty();
+    let (n, grid, pairs) = if contact {
+        let pairs = if capacity > 0 { capacity as usize } else { 4 * c.particles + 1024 };
+        (m.particle_count(), 4 * c.buckets() + 1 + m.particle_count() + c.edges.len(), pairs)
+    } else {
+        (0, 0, 0)
+    };
+    [nt, m.body_count(), np, caps, if caps > 0 { m.particle_count() } else { 0 }, n, grid, pairs]
 }
 
 /// Positions and velocities: storage for the kernels, copies both ways, and a vertex buffer for the renderer
@@ -209,8 +240,19 @@ const STATE_USAGE: wgpu::BufferUsages = wgpu::BufferUsages::STORAGE
     .union(wgpu::BufferUsages::COPY_SRC)
     .union(wgpu::BufferUsages::VERTEX);
 
-fn scratch(device: &wgpu::Device, m: &Model<f32>, p: &Packed) -> Scratch {
-    let sized = scratch_sizes(m, p).map(|n| n + n / 4);
+fn scratch(device: &wgpu::Device, queue: &wgpu::Queue, m: &Model<f32>, p: &Packed, capacity: u32) -> Scratch {
+    let mut sized = scratch_sizes(m, p, capacity).map(|n| n + n / 4);
+    if capacity > 0 {
+        // A capacity the user set is exact.
+        sized[7] = capacity as usize;
+    }
+    // Every particle's contact words start empty: no velocity change, no bound (+inf), in no pair.
+    let acc: Vec<i32> = (0..sized[5]).flat_map(|_| [0, 0, 0, 0, 0, 0, 0x7f80_0000, 0]).collect();
+    let c_acc = layout::create(device, "c_acc", sized[5] * 32, rw_usage());
+    queue.write_buffer(&c_acc, 0, bytemuck::cast_slice(&acc));
+    let c_grid = layout::create(device, "c_grid", sized[6] * 4, rw_usage());
+    // The counts must start at zero (a new buffer is zeroed; written anyway, to be explicit).
+    queue.write_buffer(&c_grid, 0, &vec![0u8; sized[6] * 4]);
     let rw = wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::COPY_SRC;
     Scratch {
         tri_cross: layout::create(device, "tri_cross", sized[0] * 16, rw),
@@ -219,14 +261,23 @@ fn scratch(device: &wgpu::Device, m: &Model<f32>, p: &Packed) -> Scratch {
         partials: layout::create(device, "partials", sized[2] * 4, rw),
         cap_data: layout::create(device, "cap_data", sized[3] * 32, rw),
         cap_f: layout::create(device, "cap_f", sized[4] * 16, rw),
+        c_x0: layout::create(device, "c_x0", sized[5] * 16, rw),
+        c_grid,
+        c_pairs: layout::create(device, "c_pairs", sized[7] * 64, rw),
+        c_ctl: layout::create(device, "c_ctl", 32, rw),
+        c_acc,
         sized,
     }
 }
 
+fn rw_usage() -> wgpu::BufferUsages {
+    wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::COPY_SRC
+}
+
 impl GpuSolver {
     /// A solver for `model` at its initial state, on a device the caller created (see
-    /// [`crate::GpuContext`] for one way). Fails when the integrator has no kernels, the model has contact between
-    /// surfaces (CPU only for now), the device's limits are too small, or a collider cannot be baked.
+    /// [`crate::GpuContext`] for one way). Fails when the integrator has no kernels, the device's limits are too
+    /// small, or a collider cannot be baked.
     pub fn new(
         device: wgpu::Device,
         queue: wgpu::Queue,
@@ -236,10 +287,6 @@ impl GpuSolver {
         match config.integrator {
             Integrator::SymplecticEuler | Integrator::VelocityVerlet => {}
             other => return Err(GpuError::UnsupportedIntegrator(other.name())),
-        }
-        // Refused rather than ignored: a GPU run of a contact scene would pass bodies through each other.
-        if model.has_contact() {
-            return Err(GpuError::UnsupportedContact);
         }
         if model.handles.len() > MAX_GPU_HANDLES {
             return Err(GpuError::UnsupportedHandles);
@@ -324,6 +371,9 @@ impl GpuSolver {
         let openings = Mirror::new(&device, &queue, "openings", &packed.openings, slack);
         let spring_ends = Mirror::new(&device, &queue, "spring_ends", &packed.spring_ends, slack);
         let caps = Mirror::new(&device, &queue, "caps", &packed.caps, slack);
+        let c_part = Mirror::new(&device, &queue, "c_part", &packed.contact.part, slack);
+        let c_body = Mirror::new(&device, &queue, "c_body", &packed.contact.body, slack);
+        let c_edges = Mirror::new(&device, &queue, "c_edges", &packed.contact.edges, slack);
         let colliders = Mirror::new(&device, &queue, "colliders", &colliders_host, slack);
         let sdf = Mirror::new(&device, &queue, "sdf", &sdf_host, slack);
         let n = model.particle_count();
@@ -339,11 +389,11 @@ impl GpuSolver {
         let cap = config.candidate_capacity.max(1);
         let su = wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::COPY_SRC;
         let candidates = layout::create(&device, "candidates", (4 + 2 * cap as usize) * 4, su);
-        let status = layout::create(&device, "status", 16, wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST);
+        let status = layout::create(&device, "status", 48, wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST);
         let clock_capacity = 64;
         let clock = Self::clock_buffer(&device, clock_capacity);
         let clock_bind = Self::clock_bind(&device, &layout1, &clock);
-        let scratch = scratch(&device, model, &packed);
+        let scratch = scratch(&device, &queue, model, &packed, config.contact_capacity);
         let mut s = GpuSolver {
             device,
             queue,
@@ -365,6 +415,9 @@ impl GpuSolver {
             openings,
             spring_ends,
             caps,
+            c_part,
+            c_body,
+            c_edges,
             colliders,
             sdf,
             scratch,
@@ -376,6 +429,7 @@ impl GpuSolver {
             time: 0.0,
             state_stale: false,
             last_report: RunReport::default(),
+            contact_stats: Default::default(),
             passes: Vec::new(),
             last_upload: 0,
             last_repacked: 0,
@@ -390,7 +444,8 @@ impl GpuSolver {
 
     fn write_params(&mut self, m: &Model<f32>) {
         let (gx, gy) = groups(m.tri_count());
-        self.params_host = layout::params(m, &self.packed, gx * gy, self.config.candidate_capacity.max(1));
+        let pairs = self.scratch.sized[7] as u32;
+        self.params_host = layout::params(m, &self.packed, gx * gy, self.config.candidate_capacity.max(1), pairs);
         self.queue.write_buffer(&self.params, 0, bytemuck::bytes_of(&self.params_host));
     }
 
@@ -512,6 +567,10 @@ impl GpuSolver {
         let np = groups(self.particle_count());
         let (c0, c1) = (2 * k, 2 * k + 1);
         let cur = self.cur;
+        let contact = !self.packed.contact.edges.is_empty();
+        if contact {
+            self.encode_contact_start(pass, c0);
+        }
         match self.config.integrator {
             Integrator::VelocityVerlet => {
                 if surface {
@@ -537,6 +596,9 @@ impl GpuSolver {
                 self.cur = 1 - cur;
             }
         }
+        if contact {
+            self.encode_contact_end(pass, m, c1);
+        }
         if self.packed.any_strain_limit || self.packed.any_load_limit {
             let cur = self.cur;
             if self.packed.any_strain_limit {
@@ -549,6 +611,36 @@ impl GpuSolver {
                 self.dispatch(pass, k!("load_check"), cur, c1, np);
             }
         }
+    }
+
+    /// The contact pass's first half, on the state at the start of the substep: positions saved, both grids built.
+    fn encode_contact_start(&mut self, pass: &mut wgpu::ComputePass<'_>, clock: usize) {
+        let (n, ne) = (self.particle_count(), self.packed.contact.edges.len());
+        let cur = self.cur;
+        self.dispatch(pass, k!("contact_save"), cur, clock, groups(n));
+        self.dispatch(pass, k!("contact_edges"), cur, clock, groups(ne));
+        self.dispatch(pass, k!("contact_scan"), cur, clock, (1, 1));
+        self.dispatch(pass, k!("contact_scatter"), cur, clock, groups(n + ne));
+    }
+
+    /// The contact pass's second half, on the state after the integrator and the colliders (bound as the
+    /// destination, which the kernels change in place): pairs, impulses, the displacement bound.
+    fn encode_contact_end(&mut self, pass: &mut wgpu::ComputePass<'_>, m: &Model<f32>, clock: usize) {
+        let (n, ne) = (self.particle_count(), self.packed.contact.edges.len());
+        let np = groups(n);
+        let pairs = groups(self.scratch.sized[7]);
+        let dst = 1 - self.cur;
+        self.dispatch(pass, k!("contact_moves"), dst, clock, np);
+        self.dispatch(pass, k!("contact_vt"), dst, clock, groups(m.tri_count()));
+        self.dispatch(pass, k!("contact_ee"), dst, clock, groups(ne));
+        self.dispatch(pass, k!("contact_prep"), dst, clock, pairs);
+        for _ in 0..self.config.contact_iterations {
+            self.dispatch(pass, k!("contact_jacobi"), dst, clock, pairs);
+            self.dispatch(pass, k!("contact_carry"), dst, clock, np);
+        }
+        self.dispatch(pass, k!("contact_friction"), dst, clock, pairs);
+        self.dispatch(pass, k!("contact_carry"), dst, clock, np);
+        self.dispatch(pass, k!("contact_apply"), dst, clock, np);
     }
 
     fn check_model(&self, m: &Model<f32>) -> Result<(), GpuError> {
@@ -580,6 +672,10 @@ impl GpuSolver {
         self.passes.clear();
         let mut enc = self.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("run") });
         enc.clear_buffer(&self.candidates, 0, Some(16));
+        let contact = !self.packed.contact.edges.is_empty();
+        if contact {
+            enc.clear_buffer(&self.scratch.c_ctl, 0, None);
+        }
         {
             let mut pass =
                 enc.begin_compute_pass(&wgpu::ComputePassDescriptor { label: Some("substeps"), ..Default::default() });
@@ -591,17 +687,37 @@ impl GpuSolver {
                 self.dispatch(&mut pass, k!("finite_check"), self.cur, last, groups(self.particle_count()));
             }
         }
-        let read = self.config.check_finite || m.has_fracture();
+        let read = self.config.check_finite || m.has_fracture() || contact;
         if read {
             enc.copy_buffer_to_buffer(&self.candidates, 0, &self.status, 0, 16);
+            if contact {
+                enc.copy_buffer_to_buffer(&self.scratch.c_ctl, 0, &self.status, 16, 32);
+            }
         }
         self.queue.submit([enc.finish()]);
         self.time = start + steps as f64 * dt;
         let mut report = RunReport { steps, ..Default::default() };
         if read {
-            let w: Vec<u32> = bytemuck::pod_collect_to_vec(&self.map_read(&self.status, 16).await?);
+            let w: Vec<u32> = bytemuck::pod_collect_to_vec(&self.map_read(&self.status, 48).await?);
             report.spring_candidates = w[0];
             report.vertex_candidates = w[1];
+            if contact {
+                let c = &w[4..12];
+                let s = &mut self.contact_stats;
+                s.near = c[0].min(self.params_host.contact_n[2]) as usize;
+                s.candidates = s.near;
+                s.pushed = 0;
+                s.steps += c[7] as u64;
+                s.pushed_total += c[4] as u64;
+                s.near_total += c[5] as u64;
+                s.capped_total += c[6] as u64;
+                s.builds += c[7] as u64;
+                if c[3] > 0 {
+                    self.timers.steps += steps as u64;
+                    self.timers.total += t0.elapsed();
+                    return Err(GpuError::ContactCapacity { wanted: c[3], capacity: self.params_host.contact_n[2] });
+                }
+            }
             if self.config.check_finite && w[2] != 0 {
                 self.timers.steps += steps as u64;
                 self.timers.total += t0.elapsed();
@@ -652,6 +768,28 @@ impl GpuSolver {
         self.queue.submit([enc.finish()]);
         let f = crate::mapping::now(self.read_vec4(&self.state[1 - self.cur], 2 * self.particle_count()))?;
         Ok(f.iter().step_by(2).map(|v| Vec3::new(v[0], v[1], v[2])).collect())
+    }
+
+    /// What the contact pass did: `near` is the pairs within reach in the last substep of the last submission;
+    /// the totals and `steps` sum over every substep run (`builds` counts grid builds: one per substep). Zeros
+    /// without contact.
+    pub fn contact_stats(&self) -> fissure_core::ContactStats {
+        self.contact_stats
+    }
+
+    /// The contact pairs within reach in the last substep, in no particular order (the kernels list them as they
+    /// find them): each pair's four particles (a vertex then its triangle's corners, or one edge's ends then the
+    /// other's) and its gap at the start of the substep \[m\].
+    pub fn contact_pairs(&self) -> Result<Vec<([u32; 4], f32)>, GpuError> {
+        if self.packed.contact.edges.is_empty() {
+            return Ok(Vec::new());
+        }
+        let ctl: Vec<u32> =
+            bytemuck::pod_collect_to_vec(&crate::mapping::now(self.read_bytes(&self.scratch.c_ctl, 32))?);
+        let n = (ctl[0] as usize).min(self.scratch.sized[7]);
+        let bytes = crate::mapping::now(self.read_bytes(&self.scratch.c_pairs, (n * 64) as u64))?;
+        let words: Vec<u32> = bytemuck::pod_collect_to_vec(&bytes[..n * 64]);
+        Ok(words.chunks_exact(16).map(|w| ([w[0], w[1], w[2], w[3]], f32::from_bits(w[11]))).collect())
     }
 
     /// Volume \[m^3\] and net pressure \[Pa\] of each body as of the last surface pass (zeros for bodies without gas).

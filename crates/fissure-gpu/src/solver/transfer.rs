@@ -115,6 +115,9 @@ impl GpuSolver {
         add(self.openings.sync(d, q, &p.openings));
         add(self.spring_ends.sync(d, q, &p.spring_ends));
         add(self.caps.sync(d, q, &p.caps));
+        add(self.c_part.sync(d, q, &p.contact.part));
+        add(self.c_body.sync(d, q, &p.contact.body));
+        add(self.c_edges.sync(d, q, &p.contact.edges));
         let old_count = self.particle_count();
         self.packed = p;
         self.finish_sync(m, old_count, realloc, bytes);
@@ -207,6 +210,14 @@ impl GpuSolver {
             add(self.openings.sync(d, q, &p.openings));
             add(self.caps.sync(d, q, &p.caps));
         }
+        if m.has_contact() {
+            // The contact elements follow the triangles, bodies and origins: re-packed whole (one pass over the
+            // triangles), uploaded where they differ.
+            p.contact = layout::ContactPack::new(m);
+            add(self.c_part.sync(d, q, &p.contact.part));
+            add(self.c_body.sync(d, q, &p.contact.body));
+            add(self.c_edges.sync(d, q, &p.contact.edges));
+        }
         self.finish_sync(m, n0, realloc, bytes);
     }
 
@@ -214,8 +225,9 @@ impl GpuSolver {
     /// for the new sizes, the uniform, new bind groups if any buffer was reallocated, and the upload count.
     fn finish_sync(&mut self, m: &Model<f32>, old: usize, mut realloc: bool, mut bytes: usize) {
         realloc |= self.grow_state(old, m.particle_count());
-        if (0..5).any(|k| scratch_sizes(m, &self.packed)[k] > self.scratch.sized[k]) {
-            self.scratch = scratch(&self.device, m, &self.packed);
+        let capacity = self.config.contact_capacity;
+        if (0..SCRATCH).any(|k| scratch_sizes(m, &self.packed, capacity)[k] > self.scratch.sized[k]) {
+            self.scratch = scratch(&self.device, &self.queue, m, &self.packed, capacity);
             realloc = true;
         }
         self.write_params(m);

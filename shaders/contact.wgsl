@@ -1,0 +1,457 @@
+// Contact between surfaces: the twin of `fissure_core::solver::contact` (the model is documented in
+// `fissure_core::contact`). Encoded only when the model has contact. Per substep:
+//  - at its start (`contact_save`, `contact_edges`, `contact_scan`, `contact_scatter`): the positions are saved and
+//    two hashed uniform grids are built from them by a counting sort with u32 atomics, one of the contact
+//    vertices, one of the midpoints of the contact edges;
+//  - after the integrator and the colliders (`contact_moves` … `contact_apply`): the largest move sets the reach
+//    `r = h_max + d_max / GAMMA`; every vertex–triangle and edge–edge pair closer than `r` at the start is listed
+//    (`contact_vt`, `contact_ee`); Jacobi iterations solve the normal impulses, then one pass of Coulomb friction;
+//    each particle's move is capped by the displacement bound (`GAMMA` times its nearest pair's gap), which rules
+//    out crossings whatever the impulses did.
+// Differences from the CPU pass: the grids are built at every substep (no Verlet list), and the impulses are
+// solved by Jacobi (each pair's update scaled by 1 / the most pairs any of its particles is in) instead of
+// Gauss–Seidel. Velocity changes are summed in fixed point with integer atomics (no float atomics): integer sums
+// do not depend on the order, so a run is deterministic although the pairs are listed in a racy order.
+
+// Twins of `fissure_core::contact::GAMMA` and `RELAX`.
+const GAMMA: f32 = 0.45;
+const RELAX: f32 = 0.1;
+// `c_acc` words per particle, and the bound's initial value (+inf as f32 bits).
+const ACC: u32 = 8u;
+const NO_BOUND: i32 = 0x7f800000;
+
+fn buckets() -> u32 { return params.contact_n.y + 1u; }
+fn grid_start(g: u32) -> u32 { return atomicLoad(&c_grid[2u * buckets() + g]); }
+fn grid_item(s: u32) -> u32 { return atomicLoad(&c_grid[4u * buckets() + 1u + s]); }
+
+fn cell_of(p: vec3<f32>) -> vec3<i32> {
+    return vec3<i32>(floor(p / params.contact_f.y));
+}
+
+fn bucket_of(c: vec3<i32>) -> u32 {
+    let u = bitcast<vec3<u32>>(c);
+    var h = (u.x * 0x8da6b343u) ^ (u.y * 0xd8163841u) ^ (u.z * 0xcb1ab31fu);
+    h = h ^ (h >> 15u);
+    return h & params.contact_n.y;
+}
+
+// The step's reach: a particle with nothing within it moves at most `GAMMA r`, so the bound never caps it.
+fn reach() -> f32 {
+    return params.contact_f.x + bitcast<f32>(atomicLoad(&c_ctl[1])) / GAMMA;
+}
+
+fn fixed(v: f32) -> i32 {
+    return i32(clamp(round(v * params.contact_f.z), -2.0e9, 2.0e9));
+}
+
+fn dv_total(i: u32) -> vec3<f32> {
+    let a = ACC * i;
+    let v = vec3<i32>(atomicLoad(&c_acc[a]), atomicLoad(&c_acc[a + 1u]), atomicLoad(&c_acc[a + 2u]));
+    return vec3<f32>(v) / params.contact_f.z;
+}
+
+fn dv_add(i: u32, v: vec3<f32>) {
+    let a = ACC * i + 3u;
+    atomicAdd(&c_acc[a], fixed(v.x));
+    atomicAdd(&c_acc[a + 1u], fixed(v.y));
+    atomicAdd(&c_acc[a + 2u], fixed(v.z));
+}
+
+// Barycentric weights of the point of triangle abc closest to p (Ericson 5.1.5).
+// Rust twin: `fissure_core::contact::geometry::closest_on_triangle`.
+fn closest_on_triangle(p: vec3<f32>, a: vec3<f32>, b: vec3<f32>, c: vec3<f32>) -> vec3<f32> {
+    let ab = b - a;
+    let ac = c - a;
+    let ap = p - a;
+    let d1 = dot(ab, ap);
+    let d2 = dot(ac, ap);
+    if (d1 <= 0.0 && d2 <= 0.0) { return vec3<f32>(1.0, 0.0, 0.0); }
+    let bp = p - b;
+    let d3 = dot(ab, bp);
+    let d4 = dot(ac, bp);
+    if (d3 >= 0.0 && d4 <= d3) { return vec3<f32>(0.0, 1.0, 0.0); }
+    let vc = d1 * d4 - d3 * d2;
+    if (vc <= 0.0 && d1 >= 0.0 && d3 <= 0.0) {
+        let v = d1 / (d1 - d3);
+        return vec3<f32>(1.0 - v, v, 0.0);
+    }
+    let cp = p - c;
+    let d5 = dot(ab, cp);
+    let d6 = dot(ac, cp);
+    if (d6 >= 0.0 && d5 <= d6) { return vec3<f32>(0.0, 0.0, 1.0); }
+    let vb = d5 * d2 - d1 * d6;
+    if (vb <= 0.0 && d2 >= 0.0 && d6 <= 0.0) {
+        let w = d2 / (d2 - d6);
+        return vec3<f32>(1.0 - w, 0.0, w);
+    }
+    let va = d3 * d6 - d5 * d4;
+    if (va <= 0.0 && d4 - d3 >= 0.0 && d5 - d6 >= 0.0) {
+        let w = (d4 - d3) / ((d4 - d3) + (d5 - d6));
+        return vec3<f32>(0.0, 1.0 - w, w);
+    }
+    let denom = 1.0 / (va + vb + vc);
+    let v = vb * denom;
+    let w = vc * denom;
+    return vec3<f32>(1.0 - v - w, v, w);
+}
+
+// Parameters (s, t) of the closest points of segments p1q1 and p2q2 (Ericson 5.1.9).
+// Rust twin: `fissure_core::contact::geometry::closest_on_segments`.
+fn closest_on_segments(p1: vec3<f32>, q1: vec3<f32>, p2: vec3<f32>, q2: vec3<f32>) -> vec2<f32> {
+    let d1 = q1 - p1;
+    let d2 = q2 - p2;
+    let r = p1 - p2;
+    let a = dot(d1, d1);
+    let e = dot(d2, d2);
+    let f = dot(d2, r);
+    let tiny = 1e-30;
+    if (a <= tiny && e <= tiny) { return vec2<f32>(0.0); }
+    if (a <= tiny) { return vec2<f32>(0.0, clamp(f / e, 0.0, 1.0)); }
+    let c = dot(d1, r);
+    if (e <= tiny) { return vec2<f32>(clamp(-c / a, 0.0, 1.0), 0.0); }
+    let b = dot(d1, d2);
+    let denom = a * e - b * b;
+    var s = 0.0;
+    if (denom > 0.0) { s = clamp((b * f - c * e) / denom, 0.0, 1.0); }
+    var t = (b * s + f) / e;
+    if (t < 0.0) {
+        t = 0.0;
+        s = clamp(-c / a, 0.0, 1.0);
+    } else if (t > 1.0) {
+        t = 1.0;
+        s = clamp((b - c) / a, 0.0, 1.0);
+    }
+    return vec2<f32>(s, t);
+}
+
+// Lists a pair closer than the reach: thickness the larger of the bodies', friction their mean.
+fn push_pair(p: vec4<u32>, w: vec4<f32>, n: vec3<f32>, d: f32, ba: u32, bb: u32) {
+    let k = atomicAdd(&c_ctl[0], 1u);
+    if (k >= params.contact_n.z) {
+        atomicMax(&c_ctl[3], k + 1u);
+        return;
+    }
+    let im = vec4<f32>(particles[p.x].inv_mass, particles[p.y].inv_mass, particles[p.z].inv_mass, particles[p.w].inv_mass);
+    let h = max(c_body[ba].x, c_body[bb].x);
+    let mu = 0.5 * (c_body[ba].y + c_body[bb].y);
+    c_pairs[k] = Pair(p, w, vec4<f32>(n, d), vec4<f32>(h, mu, dot(w * w, im), 0.0));
+}
+
+fn same_origin(a: u32, b: u32) -> bool {
+    return c_part[a].x == c_part[b].x;
+}
+
+// Bodies `a` and `b` may touch: different bodies, or one that collides with itself.
+fn allowed(a: u32, b: u32) -> bool {
+    return a != b || c_body[a].z != 0.0;
+}
+
+@compute @workgroup_size(64)
+fn contact_save(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>) {
+    let i = flat_index(gid, nwg);
+    if (i == 0u) {
+        atomicStore(&c_ctl[0], 0u);
+        atomicStore(&c_ctl[1], 0u);
+        atomicStore(&c_ctl[2], 0u);
+        atomicAdd(&c_ctl[7], 1u);
+    }
+    if (i >= particle_count()) { return; }
+    let x = q_src(i);
+    c_x0[i] = vec4<f32>(x, 0.0);
+    if (c_part[i].z == 0u) { return; }
+    atomicAdd(&c_grid[bucket_of(cell_of(x))], 1u);
+}
+
+@compute @workgroup_size(64)
+fn contact_edges(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>) {
+    let e = flat_index(gid, nwg);
+    if (e >= params.contact_n.x) { return; }
+    let ab = c_edges[e];
+    let a = q_src(ab.x);
+    let b = q_src(ab.y);
+    atomicMax(&c_ctl[2], bitcast<u32>(0.5 * length(b - a)));
+    atomicAdd(&c_grid[buckets() + bucket_of(cell_of(0.5 * (a + b)))], 1u);
+}
+
+var<workgroup> chunk_sums: array<u32, 256>;
+
+// The bucket starts of both grids: an exclusive scan of their counts by one workgroup (each invocation a
+// contiguous chunk; the buckets are a power of two, at least 128 per grid).
+@compute @workgroup_size(256)
+fn contact_scan(@builtin(local_invocation_index) t: u32) {
+    let n = 2u * buckets();
+    let chunk = n / 256u;
+    let base = t * chunk;
+    var s = 0u;
+    for (var k = 0u; k < chunk; k++) {
+        s += atomicLoad(&c_grid[base + k]);
+    }
+    chunk_sums[t] = s;
+    workgroupBarrier();
+    if (t == 0u) {
+        var run = 0u;
+        for (var k = 0u; k < 256u; k++) {
+            let v = chunk_sums[k];
+            chunk_sums[k] = run;
+            run += v;
+        }
+        atomicStore(&c_grid[n + n], run);
+    }
+    workgroupBarrier();
+    var run = chunk_sums[t];
+    for (var k = 0u; k < chunk; k++) {
+        atomicStore(&c_grid[n + base + k], run);
+        run += atomicLoad(&c_grid[base + k]);
+    }
+}
+
+// Each vertex and edge into its bucket; the counts count back down to zero for the next substep.
+@compute @workgroup_size(64)
+fn contact_scatter(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>) {
+    let k = flat_index(gid, nwg);
+    let n = particle_count();
+    var g = 0u;
+    var id = k;
+    if (k < n) {
+        if (c_part[k].z == 0u) { return; }
+        g = bucket_of(cell_of(c_x0[k].xyz));
+    } else if (k < n + params.contact_n.x) {
+        id = k - n;
+        let ab = c_edges[id];
+        g = buckets() + bucket_of(cell_of(0.5 * (c_x0[ab.x].xyz + c_x0[ab.y].xyz)));
+    } else {
+        return;
+    }
+    let slot = grid_start(g) + atomicSub(&c_grid[g], 1u) - 1u;
+    atomicStore(&c_grid[4u * buckets() + 1u + slot], id);
+}
+
+@compute @workgroup_size(64)
+fn contact_moves(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>) {
+    let i = flat_index(gid, nwg);
+    if (i >= particle_count() || c_part[i].z == 0u) { return; }
+    atomicMax(&c_ctl[1], bitcast<u32>(length(q_dst(i) - c_x0[i].xyz)));
+}
+
+// The cells of the box [lo, hi]: how many to visit (1, meaning every item of the grid, when the box spans more
+// cells than the grid has buckets), and the span per axis.
+fn box_cells(lo: vec3<f32>, hi: vec3<f32>) -> vec4<u32> {
+    let span = vec3<u32>(cell_of(hi) - cell_of(lo) + vec3<i32>(1));
+    if (f32(span.x) * f32(span.y) * f32(span.z) > f32(buckets())) {
+        return vec4<u32>(1u, 0u, 0u, 0u);
+    }
+    return vec4<u32>(span.x * span.y * span.z, span);
+}
+
+// Bucket range `[from, to)` of cell number `c` of a box starting at cell `a` (grid `g0`: 0 vertices, `buckets()`
+// edges); with `span.y == 0`, every item of the grid.
+fn cell_range(g0: u32, a: vec3<i32>, span: vec4<u32>, c: u32) -> vec2<u32> {
+    if (span.y == 0u) {
+        return vec2<u32>(grid_start(g0), grid_start(g0 + buckets()));
+    }
+    let b = g0 + bucket_of(cell_at(a, span, c));
+    return vec2<u32>(grid_start(b), grid_start(b + 1u));
+}
+
+fn cell_at(a: vec3<i32>, span: vec4<u32>, c: u32) -> vec3<i32> {
+    return a + vec3<i32>(vec3<u32>(c % span.y, (c / span.y) % span.z, c / (span.y * span.z)));
+}
+
+// Vertex–triangle pairs: each contact triangle against the vertices in the cells of its box grown by the reach.
+@compute @workgroup_size(64)
+fn contact_vt(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>) {
+    let t = flat_index(gid, nwg);
+    if (t >= tri_count()) { return; }
+    let tv = tris[t];
+    if (c_body[tv.w].x <= 0.0) { return; }
+    let r = reach();
+    let xa = c_x0[tv.x].xyz;
+    let xb = c_x0[tv.y].xyz;
+    let xc = c_x0[tv.z].xyz;
+    let lo = min(min(xa, xb), xc) - vec3<f32>(r);
+    let hi = max(max(xa, xb), xc) + vec3<f32>(r);
+    let a = cell_of(lo);
+    let span = box_cells(lo, hi);
+    let origins = vec3<u32>(c_part[tv.x].x, c_part[tv.y].x, c_part[tv.z].x);
+    for (var c = 0u; c < span.x; c++) {
+        let range = cell_range(0u, a, span, c);
+        for (var s = range.x; s < range.y; s++) {
+            let v = grid_item(s);
+            let p = c_x0[v].xyz;
+            if (span.y != 0u && any(cell_of(p) != cell_at(a, span, c))) { continue; }
+            if (any(p < lo) || any(p > hi)) { continue; }
+            let pv = c_part[v];
+            if (any(origins == vec3<u32>(pv.x)) || !allowed(pv.y, tv.w)) { continue; }
+            let w = closest_on_triangle(p, xa, xb, xc);
+            let diff = p - (w.x * xa + w.y * xb + w.z * xc);
+            let d = length(diff);
+            if (d >= r) { continue; }
+            var n = cross(xb - xa, xc - xa);
+            if (d > 1e-12) { n = diff / d; } else if (dot(n, n) > 0.0) { n = normalize(n); } else { n = vec3<f32>(0.0, 1.0, 0.0); }
+            push_pair(vec4<u32>(v, tv.xyz), vec4<f32>(1.0, -w), n, d, pv.y, tv.w);
+        }
+    }
+}
+
+// Edge–edge pairs: each contact edge against the edges of higher index whose midpoints lie in the cells of its box
+// grown by the reach and the longest half edge.
+@compute @workgroup_size(64)
+fn contact_ee(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>) {
+    let e = flat_index(gid, nwg);
+    if (e >= params.contact_n.x) { return; }
+    let ea = c_edges[e];
+    let r = reach();
+    let p = c_x0[ea.x].xyz;
+    let q = c_x0[ea.y].xyz;
+    let elo = min(p, q);
+    let ehi = max(p, q);
+    let grow = vec3<f32>(r + bitcast<f32>(atomicLoad(&c_ctl[2])));
+    let lo = elo - grow;
+    let hi = ehi + grow;
+    let a = cell_of(lo);
+    let span = box_cells(lo, hi);
+    let oa = vec2<u32>(c_part[ea.x].x, c_part[ea.y].x);
+    let body = c_part[ea.x].y;
+    for (var c = 0u; c < span.x; c++) {
+        let range = cell_range(buckets(), a, span, c);
+        for (var s = range.x; s < range.y; s++) {
+            let f = grid_item(s);
+            if (f <= e) { continue; }
+            let eb = c_edges[f];
+            let u = c_x0[eb.x].xyz;
+            let w = c_x0[eb.y].xyz;
+            if (span.y != 0u && any(cell_of(0.5 * (u + w)) != cell_at(a, span, c))) { continue; }
+            if (any(min(u, w) - ehi >= vec3<f32>(r)) || any(elo - max(u, w) >= vec3<f32>(r))) { continue; }
+            let ob = vec2<u32>(c_part[eb.x].x, c_part[eb.y].x);
+            if (any(oa == vec2<u32>(ob.x)) || any(oa == vec2<u32>(ob.y))) { continue; }
+            let fb = c_part[eb.x].y;
+            if (!allowed(body, fb)) { continue; }
+            let st = closest_on_segments(p, q, u, w);
+            let diff = mix(p, q, st.x) - mix(u, w, st.y);
+            let d = length(diff);
+            if (d >= r) { continue; }
+            var n = cross(q - p, w - u);
+            if (d > 1e-12) { n = diff / d; } else if (dot(n, n) > 0.0) { n = normalize(n); } else { n = vec3<f32>(0.0, 1.0, 0.0); }
+            push_pair(vec4<u32>(ea, eb), vec4<f32>(1.0 - st.x, st.x, st.y - 1.0, -st.y), n, d, body, fb);
+        }
+    }
+}
+
+fn pair_count() -> u32 {
+    return min(atomicLoad(&c_ctl[0]), params.contact_n.z);
+}
+
+// Each pair's particles: the displacement bound (GAMMA times the nearest gap) and how many pairs each is in.
+@compute @workgroup_size(64)
+fn contact_prep(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>) {
+    let k = flat_index(gid, nwg);
+    if (k >= pair_count()) { return; }
+    if (k == 0u) { atomicAdd(&c_ctl[5], pair_count()); }
+    let pr = c_pairs[k];
+    let b = bitcast<i32>(GAMMA * pr.nd.w);
+    for (var m = 0u; m < 4u; m++) {
+        atomicMin(&c_acc[ACC * pr.p[m] + 6u], b);
+        atomicAdd(&c_acc[ACC * pr.p[m] + 7u], 1);
+    }
+}
+
+// Jacobi's relaxation of a pair: 1 / the most pairs any of its particles is in.
+fn relaxation(p: vec4<u32>) -> f32 {
+    var most = 1;
+    for (var m = 0u; m < 4u; m++) {
+        most = max(most, atomicLoad(&c_acc[ACC * p[m] + 7u]));
+    }
+    return 1.0 / f32(most);
+}
+
+// The relative velocity of a pair's two elements with the velocity changes so far.
+fn pair_velocity(pr: Pair) -> vec3<f32> {
+    var u = vec3<f32>(0.0);
+    for (var m = 0u; m < 4u; m++) {
+        u += pr.w[m] * (qd_dst(pr.p[m]) + dv_total(pr.p[m]));
+    }
+    return u;
+}
+
+// One Jacobi iteration of the normal impulses: the impulse that brings the predicted gap at the end of the step to
+// the thickness (a pair already inside it recovers RELAX of its overlap per step), never pulling.
+@compute @workgroup_size(64)
+fn contact_jacobi(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>) {
+    let k = flat_index(gid, nwg);
+    if (k >= pair_count()) { return; }
+    let pr = c_pairs[k];
+    let wsum = pr.hmj.z;
+    if (wsum <= 0.0) { return; }
+    let n = pr.nd.xyz;
+    let d = pr.nd.w;
+    let h = pr.hmj.x;
+    let un = dot(pair_velocity(pr), n);
+    var goal = RELAX * (h - d) / clock.dt;
+    if (d >= h) { goal = (h - d) / clock.dt; }
+    let j = max(pr.hmj.w + relaxation(pr.p) * (goal - un) / wsum, 0.0);
+    let dj = j - pr.hmj.w;
+    if (dj == 0.0) { return; }
+    c_pairs[k].hmj.w = j;
+    for (var m = 0u; m < 4u; m++) {
+        dv_add(pr.p[m], (pr.w[m] * particles[pr.p[m]].inv_mass * dj) * n);
+    }
+}
+
+// Coulomb friction: tangential relative velocity removed up to mu times the pair's normal impulse.
+@compute @workgroup_size(64)
+fn contact_friction(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>) {
+    let k = flat_index(gid, nwg);
+    if (k >= pair_count()) { return; }
+    let pr = c_pairs[k];
+    let wsum = pr.hmj.z;
+    if (pr.hmj.w <= 0.0) { return; }
+    atomicAdd(&c_ctl[4], 1u);
+    let n = pr.nd.xyz;
+    let u = pair_velocity(pr);
+    let ut = u - dot(u, n) * n;
+    let speed = length(ut);
+    if (speed <= 0.0 || wsum <= 0.0) { return; }
+    let jt = min(relaxation(pr.p) * speed / wsum, pr.hmj.y * pr.hmj.w);
+    let dir = ut / speed;
+    for (var m = 0u; m < 4u; m++) {
+        dv_add(pr.p[m], -(pr.w[m] * particles[pr.p[m]].inv_mass * jt) * dir);
+    }
+}
+
+// The iteration's changes into the totals (a separate pass, so that every pair of an iteration reads the same
+// totals: Jacobi).
+@compute @workgroup_size(64)
+fn contact_carry(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>) {
+    let i = flat_index(gid, nwg);
+    if (i >= particle_count() || atomicLoad(&c_acc[ACC * i + 7u]) == 0) { return; }
+    for (var c = 0u; c < 3u; c++) {
+        let d = atomicExchange(&c_acc[ACC * i + 3u + c], 0);
+        atomicAdd(&c_acc[ACC * i + c], d);
+    }
+}
+
+// Applies each touched particle's velocity change, caps its move at its bound, and resets its words.
+@compute @workgroup_size(64)
+fn contact_apply(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>) {
+    let i = flat_index(gid, nwg);
+    if (i >= particle_count() || atomicLoad(&c_acc[ACC * i + 7u]) == 0) { return; }
+    let dv = dv_total(i);
+    let b = bitcast<f32>(atomicExchange(&c_acc[ACC * i + 6u], NO_BOUND));
+    for (var c = 0u; c < 3u; c++) {
+        atomicStore(&c_acc[ACC * i + c], 0);
+    }
+    atomicStore(&c_acc[ACC * i + 7u], 0);
+    if (particles[i].inv_mass == 0.0) { return; }
+    let x0 = c_x0[i].xyz;
+    var x = q_dst(i) + clock.dt * dv;
+    var v = qd_dst(i) + dv;
+    let mv = x - x0;
+    let len = length(mv);
+    if (len > b) {
+        let k = b / len;
+        x = x0 + k * mv;
+        v *= k;
+        atomicAdd(&c_ctl[6], 1u);
+    }
+    store(i, x, v);
+}
