@@ -11,10 +11,12 @@ const errorBox = document.getElementById("error");
 // copies each frame into a 2D canvas, for browsers whose WebGPU cannot present to a canvas (headless Chromium on
 // its software adapter loses the device at the first present). Without it the page presents to the canvas and,
 // should the device be lost in the first frames, starts again in copy mode on a fresh canvas and device.
+// `?contact=off` runs the scenes' contact bodies without contact between surfaces.
 const params = new URLSearchParams(location.search);
 const api = (window.fissure = {
   sim: null, ready: false, error: null, paused: params.has("paused"), frames: 0, inFrame: false, lastPuncture: null,
   present: params.get("present") === "copy" ? "copy" : "canvas", fallback: null,
+  contact: params.get("contact") !== "off",
 });
 
 function fail(message) {
@@ -42,7 +44,7 @@ async function load(name) {
   await serial(async () => {
     if (api.sim) api.sim.free();
     api.sim = null;
-    api.sim = await Sim.create(canvas, name, api.present === "copy");
+    api.sim = await Sim.create(canvas, name, api.present === "copy", api.contact);
     api.sim.set_adapter(api.adapter);
   });
   if (mine !== generation) return;

@@ -1,7 +1,7 @@
 //! # fissure-gpu
 //!
 //! The wgpu compute backend of fissure: springs, gravity, the closed pressure model, wind, symplectic Euler and
-//! velocity Verlet, and collisions run as WGSL kernels (`shaders/` at the workspace root), with the CPU engine
+//! velocity Verlet, collisions and contact between surfaces run as WGSL kernels (`shaders/` at the workspace root), with the CPU engine
 //! of `fissure-core` as their reference. Fracture stays on the CPU: a kernel flags the springs and vertices past
 //! their limits, and only then is the state read back and the topology changed by `fissure_core::fracture`
 //! (unchanged); the solver then re-uploads what changed.

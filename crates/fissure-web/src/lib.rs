@@ -143,22 +143,22 @@ fn gas_volume(w: &World<f32>) -> f64 {
 }
 
 /// The scene `name` as the page runs it, and what it changed to run it on the GPU.
-fn scene(name: &str) -> Result<(Scene, Vec<String>), JsValue> {
+fn scene(name: &str, contact: bool) -> Result<(Scene, Vec<String>), JsValue> {
     let (_, text) = SCENES
         .iter()
         .find(|(n, _)| *n == name)
         .ok_or_else(|| js_err(format!("no scene {name:?}; the page has {:?}", scene_names())))?;
     let path = Path::new(name);
     let base = Scene::parse(text, path).map_err(js_err)?;
-    // Contact between surfaces is CPU-only for now (the GPU solver refuses it rather than ignore it): the page
-    // runs those bodies without it and says so.
+    // Contact between surfaces runs on the GPU like the rest; `contact = false` (the page's `?contact=off`) runs
+    // those bodies without it, and the page says so.
     let mut overrides = Vec::new();
     let mut notes = Vec::new();
     for (k, b) in base.bodies.iter().enumerate() {
-        if b.contact || b.self_collision {
+        if !contact && (b.contact || b.self_collision) {
             overrides.push(Override::new(format!("body[{k}].contact"), false));
             overrides.push(Override::new(format!("body[{k}].self_collision"), false));
-            notes.push(format!("body {k}: contact off (CPU only)"));
+            notes.push(format!("body {k}: contact off (?contact=off)"));
         }
     }
     Ok((Scene::parse_with(text, path, &overrides).map_err(js_err)?, notes))
@@ -168,9 +168,15 @@ fn scene(name: &str) -> Result<(Scene, Vec<String>), JsValue> {
 impl Sim {
     /// Loads scene `name` (see [`scene_names`]) into `canvas`: a WebGPU device with the default limits, the GPU
     /// solver, the renderer; `copy` draws offscreen and copies each frame into the canvas's 2D context (see
-    /// `Present::Copy`). Rejects with a message on a browser without WebGPU.
-    pub async fn create(canvas: web_sys::HtmlCanvasElement, name: String, copy: bool) -> Result<Sim, JsValue> {
-        let (scene, notes) = scene(&name)?;
+    /// `Present::Copy`); `contact` false runs the scene's contact bodies without contact. Rejects with a message
+    /// on a browser without WebGPU.
+    pub async fn create(
+        canvas: web_sys::HtmlCanvasElement,
+        name: String,
+        copy: bool,
+        contact: bool,
+    ) -> Result<Sim, JsValue> {
+        let (scene, notes) = scene(&name, contact)?;
         let mut world = scene.world::<f32>().map_err(js_err)?;
         let (width, height) = (canvas.width().max(1), canvas.height().max(1));
         let instance = wgpu::Instance::new(wgpu::InstanceDescriptor {
@@ -397,13 +403,15 @@ impl Sim {
     }
 
     /// What the page shows and the test reads, as JSON: scene, adapter, simulated time, frames, fps, fracture
-    /// events, pieces, gas volume now and at the start, simulation time per frame.
+    /// events, pieces, gas volume now and at the start, simulation time per frame, substeps the contact pass ran
+    /// and the pairs it found within reach (summed over them).
     pub fn stats(&self) -> Result<String, JsValue> {
         let s = self.inner()?;
         let w = &s.world;
+        let contact = w.gpu_solver().map(|g| g.contact_stats()).unwrap_or_default();
         let esc = |t: &str| t.replace('\\', "\\\\").replace('"', "\\\"");
         Ok(format!(
-            "{{\"scene\":\"{}\",\"title\":\"{}\",\"adapter\":\"{}\",\"time\":{},\"frames\":{},\"fps\":{},\"events\":{},\"pieces\":{},\"particles\":{},\"volume\":{},\"volume0\":{},\"sim_ms\":{},\"notes\":[{}]}}",
+            "{{\"scene\":\"{}\",\"title\":\"{}\",\"adapter\":\"{}\",\"time\":{},\"frames\":{},\"fps\":{},\"events\":{},\"pieces\":{},\"particles\":{},\"volume\":{},\"volume0\":{},\"sim_ms\":{},\"contact_steps\":{},\"contact_pairs\":{},\"notes\":[{}]}}",
             esc(&s.name),
             esc(&s.title),
             esc(&s.adapter),
@@ -416,6 +424,8 @@ impl Sim {
             gas_volume(w),
             s.volume0,
             s.sim_ms,
+            contact.steps,
+            contact.near_total,
             s.notes.iter().map(|n| format!("\"{}\"", esc(n))).collect::<Vec<_>>().join(",")
         ))
     }

@@ -34,6 +34,14 @@
 //!    impulses keep pairs at `h`, where the cap is `GAMMA h` per step (metres per second of sliding at the
 //!    scenes' steps). A capped particle's velocity is scaled down with its move (energy only decreases).
 //!
+//! On the GPU (`fissure-gpu`, `shaders/contact.wgsl`) the same model runs with two differences, both for a machine
+//! of thousands of threads: the grids are built at every substep (a counting sort with u32 atomics, no Verlet
+//! list to keep valid), and the impulses are solved by Jacobi iterations (each pair's update scaled by one over the
+//! most pairs any of its particles is in) instead of Gauss–Seidel, their velocity changes summed in fixed point with
+//! integer atomics (WGSL has no float atomics, and integer sums do not depend on the order the racing threads add
+//! them in, so a GPU run is deterministic). The pairs are the CPU's (tested exactly on a fixed configuration);
+//! the displacement bound is the same, so the no-crossing guarantee holds there too.
+//!
 //! With implicit Euler the same pass runs after the solve (contact is not in the linear system): stable at any
 //! step, since it only removes relative velocity and caps moves.
 
