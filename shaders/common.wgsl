@@ -145,6 +145,9 @@ struct Collider {
 // Per particle, 8 words: velocity change (fixed point) xyz, this iteration's change xyz, bound (f32 bits), pairs.
 @group(0) @binding(27) var<storage, read_write> c_acc: array<atomic<i32>>;
 
+// The workgroup counts of the dispatches over the pairs (x, y, z), written once the pairs are known.
+@group(0) @binding(28) var<storage, read_write> c_args: array<u32>;
+
 // A contact pair: four particles and weights (`Σ w x` runs from the second element to the first), the normal and
 // gap, then thickness, friction, `Σ w² / m` and the accumulated normal impulse.
 struct Pair {

@@ -341,6 +341,17 @@ fn pair_count() -> u32 {
     return min(atomicLoad(&c_ctl[0]), params.contact_n.z);
 }
 
+// The dispatches over the pairs run as many workgroups as there are pairs this substep (indirect), not the
+// capacity's worth.
+@compute @workgroup_size(1)
+fn contact_args() {
+    let groups = (pair_count() + WG - 1u) / WG;
+    let x = min(groups, 65535u);
+    c_args[0] = x;
+    c_args[1] = select(1u, (groups + x - 1u) / x, x > 0u);
+    c_args[2] = 1u;
+}
+
 // Each pair's particles: the displacement bound (GAMMA times the nearest gap) and how many pairs each is in.
 @compute @workgroup_size(64)
 fn contact_prep(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>) {

@@ -491,7 +491,7 @@ fn only_the_kernels_a_model_needs_are_encoded() {
     b.set_contact(0, Contact { self_collision: true, ..Default::default() }).unwrap();
     let m: Model<f32> = b.finalize().unwrap();
     let start = ["contact_save", "contact_edges", "contact_scan", "contact_scatter", "integrate_symplectic_euler"];
-    let pairs = ["contact_moves", "contact_vt", "contact_ee", "contact_prep"];
+    let pairs = ["contact_moves", "contact_vt", "contact_ee", "contact_args", "contact_prep"];
     let jacobi = ["contact_jacobi", "contact_carry"].repeat(16);
     let end = ["contact_friction", "contact_carry", "contact_apply"];
     let one = [&start[..], &pairs[..], &jacobi[..], &end[..]].concat();

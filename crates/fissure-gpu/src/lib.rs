@@ -61,7 +61,7 @@ pub const SHADERS: [(&str, &str); 5] = [
 /// than 8 storage buffers, WebGPU's default `maxStorageBuffersPerShaderStage` (what a browser grants without
 /// asking): one layout with all 19 would need a device that allows 19. `tests/wgsl.rs` checks the table against
 /// what naga finds each entry point using.
-pub const KERNEL_BINDINGS: [(&str, &[u32]); 26] = [
+pub const KERNEL_BINDINGS: [(&str, &[u32]); 27] = [
     ("integrate_symplectic_euler", &FORCE_GATHER),
     ("integrate_verlet_first", &FORCE_GATHER),
     ("integrate_verlet_second", &FORCE_GATHER),
@@ -83,6 +83,7 @@ pub const KERNEL_BINDINGS: [(&str, &[u32]); 26] = [
     ("contact_moves", &[2, 20, 23, 26]),
     ("contact_vt", &[3, 7, 20, 21, 23, 24, 25, 26]),
     ("contact_ee", &[3, 20, 21, 22, 23, 24, 25, 26]),
+    ("contact_args", &[26, 28]),
     ("contact_prep", &[25, 26, 27]),
     ("contact_jacobi", &CONTACT_IMPULSE),
     ("contact_friction", &CONTACT_IMPULSE),
@@ -99,7 +100,7 @@ const CONTACT_IMPULSE: [u32; 5] = [2, 3, 25, 26, 27];
 const FORCE_GATHER: [u32; 8] = [1, 2, 3, 4, 5, 6, 9, 18];
 
 /// Storage buffers of `common.wgsl` written by some kernel (declared `read_write`); the rest are read-only.
-pub const READ_WRITE_BINDINGS: [u32; 13] = [2, 8, 9, 11, 12, 17, 18, 19, 23, 24, 25, 26, 27];
+pub const READ_WRITE_BINDINGS: [u32; 14] = [2, 8, 9, 11, 12, 17, 18, 19, 23, 24, 25, 26, 27, 28];
 
 /// The declarations every kernel file shares (bindings, structs, helpers).
 pub const COMMON_WGSL: &str = include_str!("../../../shaders/common.wgsl");

@@ -64,6 +64,7 @@ impl GpuSolver {
             25 => &s.c_pairs,
             26 => &s.c_ctl,
             27 => &s.c_acc,
+            28 => &s.c_args,
             _ => unreachable!("common.wgsl has no binding {binding}"),
         }
     }

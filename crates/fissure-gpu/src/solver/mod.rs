@@ -12,7 +12,7 @@
 //! | `integrate_symplectic_euler` or `integrate_verlet_first` + `integrate_verlet_second` | always |
 //! | `collide` | colliders |
 //! | `contact_save`, `contact_edges`, `contact_scan`, `contact_scatter` (before the integrator) | contact |
-//! | `contact_moves`, `contact_vt`, `contact_ee`, `contact_prep`, `contact_iterations` × (`contact_jacobi`, `contact_carry`), `contact_friction`, `contact_carry`, `contact_apply` | contact |
+//! | `contact_moves`, `contact_vt`, `contact_ee`, `contact_args`, `contact_prep`, `contact_iterations` × (`contact_jacobi`, `contact_carry`), `contact_friction`, `contact_carry`, `contact_apply` | contact |
 //! | `strain_check` / `surface_pressure` + `load_check` | breakable springs / vertices (the pressure pass: gas) |
 //! | `finite_check` | once per submission, with `check_finite` |
 //!
@@ -137,6 +137,7 @@ struct Scratch {
     c_pairs: wgpu::Buffer,
     c_ctl: wgpu::Buffer,
     c_acc: wgpu::Buffer,
+    c_args: wgpu::Buffer,
     /// (triangles, bodies, partial floats, openings, particles with cap forces, particles in a contact model, grid
     /// words, contact pairs) they hold.
     sized: [usize; SCRATCH],
@@ -266,6 +267,7 @@ fn scratch(device: &wgpu::Device, queue: &wgpu::Queue, m: &Model<f32>, p: &Packe
         c_pairs: layout::create(device, "c_pairs", sized[7] * 64, rw),
         c_ctl: layout::create(device, "c_ctl", 32, rw),
         c_acc,
+        c_args: layout::create(device, "c_args", 16, rw_usage() | wgpu::BufferUsages::INDIRECT),
         sized,
     }
 }
@@ -531,6 +533,16 @@ impl GpuSolver {
         self.passes.push(KERNEL_BINDINGS[k].0);
     }
 
+    /// [`GpuSolver::dispatch`] with the workgroup counts read from the contact pass's `c_args` (one per pair this
+    /// substep, written by `contact_args`).
+    fn dispatch_pairs(&mut self, pass: &mut wgpu::ComputePass<'_>, k: usize, cur: usize, clock: usize) {
+        pass.set_pipeline(&self.kernels.pipelines[k]);
+        pass.set_bind_group(0, &self.bind[k][cur], &[]);
+        pass.set_bind_group(1, &self.clock_bind, &[(clock as u64 * CLOCK_STRIDE) as u32]);
+        pass.dispatch_workgroups_indirect(&self.scratch.c_args, 0);
+        self.passes.push(KERNEL_BINDINGS[k].0);
+    }
+
     /// Encodes the surface pass on state buffer `cur` (with the clock entry `clock`): crosses and volume
     /// partials, caps, volumes and pressures, then the per-corner forces and the caps' forces (`forces`), or the
     /// per-corner pressure shares alone (for the load check).
@@ -628,17 +640,17 @@ impl GpuSolver {
     fn encode_contact_end(&mut self, pass: &mut wgpu::ComputePass<'_>, m: &Model<f32>, clock: usize) {
         let (n, ne) = (self.particle_count(), self.packed.contact.edges.len());
         let np = groups(n);
-        let pairs = groups(self.scratch.sized[7]);
         let dst = 1 - self.cur;
         self.dispatch(pass, k!("contact_moves"), dst, clock, np);
         self.dispatch(pass, k!("contact_vt"), dst, clock, groups(m.tri_count()));
         self.dispatch(pass, k!("contact_ee"), dst, clock, groups(ne));
-        self.dispatch(pass, k!("contact_prep"), dst, clock, pairs);
+        self.dispatch(pass, k!("contact_args"), dst, clock, (1, 1));
+        self.dispatch_pairs(pass, k!("contact_prep"), dst, clock);
         for _ in 0..self.config.contact_iterations {
-            self.dispatch(pass, k!("contact_jacobi"), dst, clock, pairs);
+            self.dispatch_pairs(pass, k!("contact_jacobi"), dst, clock);
             self.dispatch(pass, k!("contact_carry"), dst, clock, np);
         }
-        self.dispatch(pass, k!("contact_friction"), dst, clock, pairs);
+        self.dispatch_pairs(pass, k!("contact_friction"), dst, clock);
         self.dispatch(pass, k!("contact_carry"), dst, clock, np);
         self.dispatch(pass, k!("contact_apply"), dst, clock, np);
     }
