@@ -62,13 +62,15 @@ fn bench(c: &mut Criterion) {
     let per = |a: u64, b: u64| (a - b) as f64 / steps as f64;
     println!(
         "cloth {n}x{n} folding on a ball, {} threads: {:.1} µs/step with self-collision, {:.1} without: {:.2}x; \
-         {:.0} pairs within reach and {:.0} pushed per step, {} candidate lists built and {} refreshed in {steps} steps",
+         {:.0} pairs within reach and {:.0} pushed per step, {} candidates listed (last step), {} candidate lists \
+         built and {} refreshed in {steps} steps",
         rayon::current_num_threads(),
         t_with * 1e6,
         t_without * 1e6,
         t_with / t_without,
         per(after.near_total, before.near_total),
         per(after.pushed_total, before.pushed_total),
+        after.candidates,
         after.builds - before.builds,
         after.refreshes - before.refreshes
     );
