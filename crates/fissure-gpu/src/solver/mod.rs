@@ -526,21 +526,23 @@ impl GpuSolver {
     /// Encodes kernel `k` (an index of [`KERNEL_BINDINGS`], from [`k!`]) reading state `cur`, with clock entry
     /// `clock`, over `n` workgroups.
     fn dispatch(&mut self, pass: &mut wgpu::ComputePass<'_>, k: usize, cur: usize, clock: usize, n: (u32, u32)) {
+        self.bind_kernel(pass, k, cur, clock);
+        pass.dispatch_workgroups(n.0, n.1, 1);
+    }
+
+    /// Sets kernel `k`'s pipeline and bind groups (state `cur`, clock entry `clock`) and records the pass.
+    fn bind_kernel(&mut self, pass: &mut wgpu::ComputePass<'_>, k: usize, cur: usize, clock: usize) {
         pass.set_pipeline(&self.kernels.pipelines[k]);
         pass.set_bind_group(0, &self.bind[k][cur], &[]);
         pass.set_bind_group(1, &self.clock_bind, &[(clock as u64 * CLOCK_STRIDE) as u32]);
-        pass.dispatch_workgroups(n.0, n.1, 1);
         self.passes.push(KERNEL_BINDINGS[k].0);
     }
 
     /// [`GpuSolver::dispatch`] with the workgroup counts read from the contact pass's `c_args` (one per pair this
     /// substep, written by `contact_args`).
     fn dispatch_pairs(&mut self, pass: &mut wgpu::ComputePass<'_>, k: usize, cur: usize, clock: usize) {
-        pass.set_pipeline(&self.kernels.pipelines[k]);
-        pass.set_bind_group(0, &self.bind[k][cur], &[]);
-        pass.set_bind_group(1, &self.clock_bind, &[(clock as u64 * CLOCK_STRIDE) as u32]);
+        self.bind_kernel(pass, k, cur, clock);
         pass.dispatch_workgroups_indirect(&self.scratch.c_args, 0);
-        self.passes.push(KERNEL_BINDINGS[k].0);
     }
 
     /// Encodes the surface pass on state buffer `cur` (with the clock entry `clock`): crosses and volume
