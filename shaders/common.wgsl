@@ -142,19 +142,20 @@ struct Collider {
 // [pairs this substep, largest move (f32 bits), longest half edge (f32 bits), most pairs wanted past the capacity,
 //  pairs pushed (summed), pairs within reach (summed), particles capped (summed), substeps]
 @group(0) @binding(26) var<storage, read_write> c_ctl: array<atomic<u32>>;
-// Per particle, 8 words: velocity change (fixed point) xyz, this iteration's change xyz, bound (f32 bits), pairs.
+// Per particle, 8 words: two sets of velocity-change totals (fixed point) xyz, bound (f32 bits), pairs it is in.
 @group(0) @binding(27) var<storage, read_write> c_acc: array<atomic<i32>>;
 
 // The workgroup counts of the dispatches over the pairs (x, y, z), written once the pairs are known.
 @group(0) @binding(28) var<storage, read_write> c_args: array<u32>;
 
 // A contact pair: four particles and weights (`Σ w x` runs from the second element to the first), the normal and
-// gap, then thickness, friction, `Σ w² / m` and the accumulated normal impulse.
+// gap, then thickness, friction, `Σ w² / m` and the accumulated normal impulse; the last iteration's change of it.
 struct Pair {
     p: vec4<u32>,
     w: vec4<f32>,
     nd: vec4<f32>,
     hmj: vec4<f32>,
+    last: vec4<f32>,
 }
 
 @group(1) @binding(0) var<uniform> clock: Clock;

@@ -5,7 +5,8 @@
 //    vertices, one of the midpoints of the contact edges;
 //  - after the integrator and the colliders (`contact_moves` … `contact_apply`): the largest move sets the reach
 //    `r = h_max + d_max / GAMMA`; every vertex–triangle and edge–edge pair closer than `r` at the start is listed
-//    (`contact_vt`, `contact_ee`); Jacobi iterations solve the normal impulses, then one pass of Coulomb friction;
+//    (`contact_vt`, `contact_ee`); Jacobi iterations solve the normal impulses (one dispatch each, alternating
+//    between two sets of totals), then one pass of Coulomb friction;
 //    each particle's move is capped by the displacement bound (`GAMMA` times its nearest pair's gap), which rules
 //    out crossings whatever the impulses did.
 // Differences from the CPU pass: the grids are built at every substep (no Verlet list), and the impulses are
@@ -16,7 +17,8 @@
 // Twins of `fissure_core::contact::GAMMA` and `RELAX`.
 const GAMMA: f32 = 0.45;
 const RELAX: f32 = 0.1;
-// `c_acc` words per particle, and the bound's initial value (+inf as f32 bits).
+// `c_acc` words per particle (two sets of velocity-change totals xyz, the bound, the pairs it is in), and the
+// bound's initial value (+inf as f32 bits).
 const ACC: u32 = 8u;
 const NO_BOUND: i32 = 0x7f800000;
 
@@ -44,14 +46,14 @@ fn fixed(v: f32) -> i32 {
     return i32(clamp(round(v * params.contact_f.z), -2.0e9, 2.0e9));
 }
 
-fn dv_total(i: u32) -> vec3<f32> {
-    let a = ACC * i;
+fn dv_total(i: u32, totals: u32) -> vec3<f32> {
+    let a = ACC * i + 3u * totals;
     let v = vec3<i32>(atomicLoad(&c_acc[a]), atomicLoad(&c_acc[a + 1u]), atomicLoad(&c_acc[a + 2u]));
     return vec3<f32>(v) / params.contact_f.z;
 }
 
-fn dv_add(i: u32, v: vec3<f32>) {
-    let a = ACC * i + 3u;
+fn dv_add(i: u32, totals: u32, v: vec3<f32>) {
+    let a = ACC * i + 3u * totals;
     atomicAdd(&c_acc[a], fixed(v.x));
     atomicAdd(&c_acc[a + 1u], fixed(v.y));
     atomicAdd(&c_acc[a + 2u], fixed(v.z));
@@ -134,7 +136,7 @@ fn push_pair(p: vec4<u32>, w: vec4<f32>, n: vec3<f32>, d: f32, ba: u32, bb: u32)
     let im = vec4<f32>(particles[p.x].inv_mass, particles[p.y].inv_mass, particles[p.z].inv_mass, particles[p.w].inv_mass);
     let h = max(c_body[ba].x, c_body[bb].x);
     let mu = 0.5 * (c_body[ba].y + c_body[bb].y);
-    c_pairs[k] = Pair(p, w, vec4<f32>(n, d), vec4<f32>(h, mu, dot(w * w, im), 0.0));
+    c_pairs[k] = Pair(p, w, vec4<f32>(n, d), vec4<f32>(h, mu, dot(w * w, im), 0.0), vec4<f32>(0.0));
 }
 
 fn same_origin(a: u32, b: u32) -> bool {
@@ -375,20 +377,29 @@ fn relaxation(p: vec4<u32>) -> f32 {
     return 1.0 / f32(most);
 }
 
-// The relative velocity of a pair's two elements with the velocity changes so far.
-fn pair_velocity(pr: Pair) -> vec3<f32> {
+// The relative velocity of a pair's two elements with the velocity changes so far (totals set `set`).
+fn pair_velocity(pr: Pair, totals: u32) -> vec3<f32> {
     var u = vec3<f32>(0.0);
     for (var m = 0u; m < 4u; m++) {
-        u += pr.w[m] * (qd_dst(pr.p[m]) + dv_total(pr.p[m]));
+        u += pr.w[m] * (qd_dst(pr.p[m]) + dv_total(pr.p[m], totals));
     }
     return u;
 }
 
+// Adds impulse `j` along `dir` to the pair's particles in totals set `set`.
+fn pair_push(pr: Pair, totals: u32, j: f32, dir: vec3<f32>) {
+    if (j == 0.0) { return; }
+    for (var m = 0u; m < 4u; m++) {
+        dv_add(pr.p[m], totals, (pr.w[m] * particles[pr.p[m]].inv_mass * j) * dir);
+    }
+}
+
 // One Jacobi iteration of the normal impulses: the impulse that brings the predicted gap at the end of the step to
-// the thickness (a pair already inside it recovers RELAX of its overlap per step), never pulling.
-@compute @workgroup_size(64)
-fn contact_jacobi(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>) {
-    let k = flat_index(gid, nwg);
+// the thickness (a pair already inside it recovers RELAX of its overlap per step), never pulling. It reads the
+// totals of set `read` and adds to the other set, which lags by the previous iteration's changes: each pair adds
+// its previous change again (the same rounded integers) with its new one, so after the iteration the other set
+// holds every change so far, and no set is read while it is written (Jacobi, one dispatch per iteration).
+fn jacobi(k: u32, read: u32) {
     if (k >= pair_count()) { return; }
     let pr = c_pairs[k];
     let wsum = pr.hmj.z;
@@ -396,59 +407,56 @@ fn contact_jacobi(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_wo
     let n = pr.nd.xyz;
     let d = pr.nd.w;
     let h = pr.hmj.x;
-    let un = dot(pair_velocity(pr), n);
+    let un = dot(pair_velocity(pr, read), n);
     var goal = RELAX * (h - d) / clock.dt;
     if (d >= h) { goal = (h - d) / clock.dt; }
     let j = max(pr.hmj.w + relaxation(pr.p) * (goal - un) / wsum, 0.0);
     let dj = j - pr.hmj.w;
-    if (dj == 0.0) { return; }
     c_pairs[k].hmj.w = j;
-    for (var m = 0u; m < 4u; m++) {
-        dv_add(pr.p[m], (pr.w[m] * particles[pr.p[m]].inv_mass * dj) * n);
-    }
+    c_pairs[k].last.x = dj;
+    pair_push(pr, 1u - read, pr.last.x, n);
+    pair_push(pr, 1u - read, dj, n);
 }
 
-// Coulomb friction: tangential relative velocity removed up to mu times the pair's normal impulse.
+@compute @workgroup_size(64)
+fn contact_jacobi_even(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>) {
+    jacobi(flat_index(gid, nwg), 0u);
+}
+
+@compute @workgroup_size(64)
+fn contact_jacobi_odd(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>) {
+    jacobi(flat_index(gid, nwg), 1u);
+}
+
+// Coulomb friction: tangential relative velocity removed up to mu times the pair's normal impulse. After an even
+// number of Jacobi iterations set 0 holds every normal change; set 1 gets the last iteration's changes again and
+// the friction impulses, and is the one applied.
 @compute @workgroup_size(64)
 fn contact_friction(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>) {
     let k = flat_index(gid, nwg);
     if (k >= pair_count()) { return; }
     let pr = c_pairs[k];
+    let n = pr.nd.xyz;
+    pair_push(pr, 1u, pr.last.x, n);
     let wsum = pr.hmj.z;
     if (pr.hmj.w <= 0.0) { return; }
     atomicAdd(&c_ctl[4], 1u);
-    let n = pr.nd.xyz;
-    let u = pair_velocity(pr);
+    let u = pair_velocity(pr, 0u);
     let ut = u - dot(u, n) * n;
     let speed = length(ut);
     if (speed <= 0.0 || wsum <= 0.0) { return; }
     let jt = min(relaxation(pr.p) * speed / wsum, pr.hmj.y * pr.hmj.w);
-    let dir = ut / speed;
-    for (var m = 0u; m < 4u; m++) {
-        dv_add(pr.p[m], -(pr.w[m] * particles[pr.p[m]].inv_mass * jt) * dir);
-    }
+    pair_push(pr, 1u, -jt, ut / speed);
 }
 
-// The iteration's changes into the totals (a separate pass, so that every pair of an iteration reads the same
-// totals: Jacobi).
-@compute @workgroup_size(64)
-fn contact_carry(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>) {
-    let i = flat_index(gid, nwg);
-    if (i >= particle_count() || atomicLoad(&c_acc[ACC * i + 7u]) == 0) { return; }
-    for (var c = 0u; c < 3u; c++) {
-        let d = atomicExchange(&c_acc[ACC * i + 3u + c], 0);
-        atomicAdd(&c_acc[ACC * i + c], d);
-    }
-}
-
-// Applies each touched particle's velocity change, caps its move at its bound, and resets its words.
+// Applies each touched particle's velocity change (set 1), caps its move at its bound, and resets its words.
 @compute @workgroup_size(64)
 fn contact_apply(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>) {
     let i = flat_index(gid, nwg);
     if (i >= particle_count() || atomicLoad(&c_acc[ACC * i + 7u]) == 0) { return; }
-    let dv = dv_total(i);
+    let dv = dv_total(i, 1u);
     let b = bitcast<f32>(atomicExchange(&c_acc[ACC * i + 6u], NO_BOUND));
-    for (var c = 0u; c < 3u; c++) {
+    for (var c = 0u; c < 6u; c++) {
         atomicStore(&c_acc[ACC * i + c], 0);
     }
     atomicStore(&c_acc[ACC * i + 7u], 0);

@@ -486,14 +486,15 @@ fn only_the_kernels_a_model_needs_are_encoded() {
     let step = ["surface_cross", "surface_volume", "surface_force", "integrate_symplectic_euler"];
     let check = ["surface_cross", "surface_volume", "surface_pressure", "load_check"];
     assert_eq!(p, [&step[..], &check[..]].concat().repeat(2));
-    // Contact: the grids before the step, the pairs, 16 Jacobi iterations, friction and the bound after it.
+    // Contact: the grids before the step, the pairs, 16 Jacobi iterations (one dispatch each), friction and the
+    // bound after it.
     let mut b = scenes::benchmark_cloth(8).unwrap();
     b.set_contact(0, Contact { self_collision: true, ..Default::default() }).unwrap();
     let m: Model<f32> = b.finalize().unwrap();
     let start = ["contact_save", "contact_edges", "contact_scan", "contact_scatter", "integrate_symplectic_euler"];
     let pairs = ["contact_moves", "contact_vt", "contact_ee", "contact_args", "contact_prep"];
-    let jacobi = ["contact_jacobi", "contact_carry"].repeat(16);
-    let end = ["contact_friction", "contact_carry", "contact_apply"];
+    let jacobi = ["contact_jacobi_even", "contact_jacobi_odd"].repeat(8);
+    let end = ["contact_friction", "contact_apply"];
     let one = [&start[..], &pairs[..], &jacobi[..], &end[..]].concat();
     assert_eq!(run(&m, Integrator::SymplecticEuler), one.repeat(2));
     // A state that blew up is reported (the finite check of the last state).
@@ -863,4 +864,39 @@ fn contact_follows_a_core_split_on_the_gpu_path() {
     let rms = rms_difference(&cpu.state, &gpu_world.state);
     eprintln!("GPU-CPU {rms:.3e} m RMS");
     assert!(rms < 2e-3 * 1.0, "GPU and CPU differ by {rms} m after a split with contact");
+}
+
+/// The same pairs when the reach is so long that a triangle's search box spans more cells than the grid has
+/// buckets, and the kernels visit every item instead of the box's cells: two coarse balls (12 vertices, 128
+/// buckets) closing at 2,000 m/s, one step of 1e-4 s (a move of 10 cm, a reach of 24 cm, over cells of 10 cm: a
+/// triangle's box spans 6 or more cells a side).
+#[test]
+fn contact_pairs_match_the_cpu_when_the_reach_spans_the_grid() {
+    let Some(ctx) = gpu() else { return };
+    let mut b = ModelBuilder::new();
+    b.gravity(DVec3::ZERO).unwrap();
+    let (h, v, dt) = (0.02, 1000.0, 1e-4);
+    for (x, vx) in [(0.0, v), (0.3, -v)] {
+        let opts = SoftBodyOptions { velocity: DVec3::new(vx, 0.0, 0.0), ..Default::default() };
+        b.add_soft_body(&Mesh::icosphere(0.1, 0).translated(DVec3::new(x, 0.0, 0.0)), &opts).unwrap();
+    }
+    for body in 0..2 {
+        b.set_contact(body, Contact { thickness: Some(h), ..Default::default() }).unwrap();
+    }
+    let m: Model<f32> = b.finalize().unwrap();
+    let mut cpu = CpuSolver::<f32>::new(SolverConfig::default());
+    let mut s = m.state();
+    cpu.step(&m, &mut s, dt).unwrap();
+    let mut g = solver(&ctx, &m, Integrator::SymplecticEuler);
+    g.run(&m, dt, 1).unwrap();
+    let reach = h + v * dt / fissure::contact::GAMMA;
+    let clear = |d: f64| (d - reach).abs() > 1e-3 * reach;
+    let mut c: Vec<[u32; 4]> = cpu.contact_pairs().into_iter().filter(|p| clear(p.1)).map(|p| p.0).collect();
+    let mut gp: Vec<[u32; 4]> =
+        g.contact_pairs().unwrap().into_iter().filter(|p| clear(p.1 as f64)).map(|p| p.0).collect();
+    c.sort();
+    gp.sort();
+    eprintln!("{} pairs within a reach of {reach} m", c.len());
+    assert!(c.len() >= 10, "{} pairs", c.len());
+    assert_eq!(c, gp);
 }

@@ -85,9 +85,9 @@ pub const KERNEL_BINDINGS: [(&str, &[u32]); 27] = [
     ("contact_ee", &[3, 20, 21, 22, 23, 24, 25, 26]),
     ("contact_args", &[26, 28]),
     ("contact_prep", &[25, 26, 27]),
-    ("contact_jacobi", &CONTACT_IMPULSE),
+    ("contact_jacobi_even", &CONTACT_IMPULSE),
+    ("contact_jacobi_odd", &CONTACT_IMPULSE),
     ("contact_friction", &CONTACT_IMPULSE),
-    ("contact_carry", &[27]),
     ("contact_apply", &[2, 3, 23, 26, 27]),
 ];
 

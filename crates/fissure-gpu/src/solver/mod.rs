@@ -12,7 +12,7 @@
 //! | `integrate_symplectic_euler` or `integrate_verlet_first` + `integrate_verlet_second` | always |
 //! | `collide` | colliders |
 //! | `contact_save`, `contact_edges`, `contact_scan`, `contact_scatter` (before the integrator) | contact |
-//! | `contact_moves`, `contact_vt`, `contact_ee`, `contact_args`, `contact_prep`, `contact_iterations` × (`contact_jacobi`, `contact_carry`), `contact_friction`, `contact_carry`, `contact_apply` | contact |
+//! | `contact_moves`, `contact_vt`, `contact_ee`, `contact_args`, `contact_prep`, `contact_iterations` × `contact_jacobi_even`/`_odd`, `contact_friction`, `contact_apply` | contact |
 //! | `strain_check` / `surface_pressure` + `load_check` | breakable springs / vertices (the pressure pass: gas) |
 //! | `finite_check` | once per submission, with `check_finite` |
 //!
@@ -52,7 +52,8 @@ pub struct GpuConfig {
     /// Contact pairs one substep can hold; 0 (default): 4 per particle in contact plus 1,024. A substep that
     /// finds more fails the run with [`GpuError::ContactCapacity`].
     pub contact_capacity: u32,
-    /// Jacobi iterations of the contact impulses per substep. Default 16.
+    /// Jacobi iterations of the contact impulses per substep, rounded up to an even number (one dispatch each).
+    /// Default 16.
     pub contact_iterations: u32,
 }
 
@@ -142,6 +143,9 @@ struct Scratch {
     /// words, contact pairs) they hold.
     sized: [usize; SCRATCH],
 }
+
+/// Bytes of a contact pair (`Pair` in WGSL).
+const PAIR_BYTES: usize = 80;
 
 /// Entries of [`Scratch::sized`].
 const SCRATCH: usize = 8;
@@ -264,7 +268,7 @@ fn scratch(device: &wgpu::Device, queue: &wgpu::Queue, m: &Model<f32>, p: &Packe
         cap_f: layout::create(device, "cap_f", sized[4] * 16, rw),
         c_x0: layout::create(device, "c_x0", sized[5] * 16, rw),
         c_grid,
-        c_pairs: layout::create(device, "c_pairs", sized[7] * 64, rw),
+        c_pairs: layout::create(device, "c_pairs", sized[7] * PAIR_BYTES, rw),
         c_ctl: layout::create(device, "c_ctl", 32, rw),
         c_acc,
         c_args: layout::create(device, "c_args", 16, rw_usage() | wgpu::BufferUsages::INDIRECT),
@@ -648,12 +652,12 @@ impl GpuSolver {
         self.dispatch(pass, k!("contact_ee"), dst, clock, groups(ne));
         self.dispatch(pass, k!("contact_args"), dst, clock, (1, 1));
         self.dispatch_pairs(pass, k!("contact_prep"), dst, clock);
-        for _ in 0..self.config.contact_iterations {
-            self.dispatch_pairs(pass, k!("contact_jacobi"), dst, clock);
-            self.dispatch(pass, k!("contact_carry"), dst, clock, np);
+        // An even count: the friction pass reads the totals the last (odd) iteration completed.
+        for it in 0..self.config.contact_iterations.next_multiple_of(2) {
+            let k = if it % 2 == 0 { k!("contact_jacobi_even") } else { k!("contact_jacobi_odd") };
+            self.dispatch_pairs(pass, k, dst, clock);
         }
         self.dispatch_pairs(pass, k!("contact_friction"), dst, clock);
-        self.dispatch(pass, k!("contact_carry"), dst, clock, np);
         self.dispatch(pass, k!("contact_apply"), dst, clock, np);
     }
 
@@ -801,9 +805,9 @@ impl GpuSolver {
         let ctl: Vec<u32> =
             bytemuck::pod_collect_to_vec(&crate::mapping::now(self.read_bytes(&self.scratch.c_ctl, 32))?);
         let n = (ctl[0] as usize).min(self.scratch.sized[7]);
-        let bytes = crate::mapping::now(self.read_bytes(&self.scratch.c_pairs, (n * 64) as u64))?;
-        let words: Vec<u32> = bytemuck::pod_collect_to_vec(&bytes[..n * 64]);
-        Ok(words.chunks_exact(16).map(|w| ([w[0], w[1], w[2], w[3]], f32::from_bits(w[11]))).collect())
+        let bytes = crate::mapping::now(self.read_bytes(&self.scratch.c_pairs, (n * PAIR_BYTES) as u64))?;
+        let words: Vec<u32> = bytemuck::pod_collect_to_vec(&bytes[..n * PAIR_BYTES]);
+        Ok(words.chunks_exact(PAIR_BYTES / 4).map(|w| ([w[0], w[1], w[2], w[3]], f32::from_bits(w[11]))).collect())
     }
 
     /// Volume \[m^3\] and net pressure \[Pa\] of each body as of the last surface pass (zeros for bodies without gas).
