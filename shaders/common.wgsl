@@ -140,7 +140,8 @@ struct Collider {
 // The pairs within reach this substep.
 @group(0) @binding(25) var<storage, read_write> c_pairs: array<Pair>;
 // [pairs this substep, largest move (f32 bits), longest half edge (f32 bits), most pairs wanted past the capacity,
-//  pairs pushed (summed), pairs within reach (summed), particles capped (summed), substeps]
+//  pairs pushed (summed), pairs within reach (summed), particles capped (summed), substeps], then each body's box
+// (contact.wgsl, `body_box_at`).
 @group(0) @binding(26) var<storage, read_write> c_ctl: array<atomic<u32>>;
 // Per particle, 8 words: two sets of velocity-change totals (fixed point) xyz, bound (f32 bits), pairs it is in.
 @group(0) @binding(27) var<storage, read_write> c_acc: array<atomic<i32>>;

@@ -23,6 +23,34 @@ const ACC: u32 = 8u;
 const NO_BOUND: i32 = 0x7f800000;
 
 fn buckets() -> u32 { return params.contact_n.y + 1u; }
+
+// Each body's box at the start of the substep, in `c_ctl` from word 8: min xyz then max xyz, as order-preserving
+// u32 keys (so that u32 atomics take float minima and maxima). Reset to empty by `contact_args` for the next substep.
+fn body_box_at(b: u32) -> u32 { return 8u + 6u * b; }
+
+fn ordered(f: f32) -> u32 {
+    let b = bitcast<u32>(f);
+    return select(b | 0x80000000u, ~b, (b & 0x80000000u) != 0u);
+}
+
+// The inverse of `ordered`; an empty box's keys come back as NaN, which meets nothing.
+fn unordered(u: u32) -> f32 {
+    return bitcast<f32>(select(~u, u & 0x7fffffffu, (u & 0x80000000u) != 0u));
+}
+
+// True if the box [lo, hi] of an element of `body` may hold a pair: its body collides with itself, or the box
+// meets another body's box (the CPU pass's culling: away from contacts an element costs this test alone).
+fn meets_another(body: u32, lo: vec3<f32>, hi: vec3<f32>) -> bool {
+    if (c_body[body].z != 0.0) { return true; }
+    for (var b = 0u; b < params.counts.w; b++) {
+        if (b == body) { continue; }
+        let o = body_box_at(b);
+        let blo = vec3<f32>(unordered(atomicLoad(&c_ctl[o])), unordered(atomicLoad(&c_ctl[o + 1u])), unordered(atomicLoad(&c_ctl[o + 2u])));
+        let bhi = vec3<f32>(unordered(atomicLoad(&c_ctl[o + 3u])), unordered(atomicLoad(&c_ctl[o + 4u])), unordered(atomicLoad(&c_ctl[o + 5u])));
+        if (all(blo <= hi) && all(lo <= bhi)) { return true; }
+    }
+    return false;
+}
 fn grid_start(g: u32) -> u32 { return atomicLoad(&c_grid[2u * buckets() + g]); }
 fn grid_item(s: u32) -> u32 { return atomicLoad(&c_grid[4u * buckets() + 1u + s]); }
 
@@ -162,6 +190,11 @@ fn contact_save(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_work
     c_x0[i] = vec4<f32>(x, 0.0);
     if (c_part[i].z == 0u) { return; }
     atomicAdd(&c_grid[bucket_of(cell_of(x))], 1u);
+    let o = body_box_at(c_part[i].y);
+    for (var c = 0u; c < 3u; c++) {
+        atomicMin(&c_ctl[o + c], ordered(x[c]));
+        atomicMax(&c_ctl[o + 3u + c], ordered(x[c]));
+    }
 }
 
 @compute @workgroup_size(64)
@@ -272,6 +305,7 @@ fn contact_vt(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgr
     let xc = c_x0[tv.z].xyz;
     let lo = min(min(xa, xb), xc) - vec3<f32>(r);
     let hi = max(max(xa, xb), xc) + vec3<f32>(r);
+    if (!meets_another(tv.w, lo, hi)) { return; }
     let a = cell_of(lo);
     let span = box_cells(lo, hi);
     let origins = vec3<u32>(c_part[tv.x].x, c_part[tv.y].x, c_part[tv.z].x);
@@ -310,10 +344,11 @@ fn contact_ee(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgr
     let grow = vec3<f32>(r + bitcast<f32>(atomicLoad(&c_ctl[2])));
     let lo = elo - grow;
     let hi = ehi + grow;
+    let body = c_part[ea.x].y;
+    if (!meets_another(body, elo - vec3<f32>(r), ehi + vec3<f32>(r))) { return; }
     let a = cell_of(lo);
     let span = box_cells(lo, hi);
     let oa = vec2<u32>(c_part[ea.x].x, c_part[ea.y].x);
-    let body = c_part[ea.x].y;
     for (var c = 0u; c < span.x; c++) {
         let range = cell_range(buckets(), a, span, c);
         for (var s = range.x; s < range.y; s++) {
@@ -344,9 +379,15 @@ fn pair_count() -> u32 {
 }
 
 // The dispatches over the pairs run as many workgroups as there are pairs this substep (indirect), not the
-// capacity's worth.
+// capacity's worth. Also empties the bodies' boxes for the next substep.
 @compute @workgroup_size(1)
 fn contact_args() {
+    for (var b = 0u; b < params.counts.w; b++) {
+        for (var c = 0u; c < 3u; c++) {
+            atomicStore(&c_ctl[body_box_at(b) + c], 0xffffffffu);
+            atomicStore(&c_ctl[body_box_at(b) + 3u + c], 0u);
+        }
+    }
     let groups = (pair_count() + WG - 1u) / WG;
     let x = min(groups, 65535u);
     c_args[0] = x;

@@ -255,6 +255,13 @@ fn scratch(device: &wgpu::Device, queue: &wgpu::Queue, m: &Model<f32>, p: &Packe
     let acc: Vec<i32> = (0..sized[5]).flat_map(|_| [0, 0, 0, 0, 0, 0, 0x7f80_0000, 0]).collect();
     let c_acc = layout::create(device, "c_acc", sized[5] * 32, rw_usage());
     queue.write_buffer(&c_acc, 0, bytemuck::cast_slice(&acc));
+    // The counters, then each body's box (empty: minima u32::MAX, maxima 0; `contact_args` empties them after
+    // every substep).
+    let boxes = if sized[6] > 0 { sized[1] } else { 0 };
+    let ctl: Vec<u32> =
+        [0; 8].into_iter().chain((0..boxes).flat_map(|_| [u32::MAX, u32::MAX, u32::MAX, 0, 0, 0])).collect();
+    let c_ctl = layout::create(device, "c_ctl", ctl.len() * 4, rw_usage());
+    queue.write_buffer(&c_ctl, 0, bytemuck::cast_slice(&ctl));
     let c_grid = layout::create(device, "c_grid", sized[6] * 4, rw_usage());
     // The counts must start at zero (a new buffer is zeroed; written anyway, to be explicit).
     queue.write_buffer(&c_grid, 0, &vec![0u8; sized[6] * 4]);
@@ -269,7 +276,7 @@ fn scratch(device: &wgpu::Device, queue: &wgpu::Queue, m: &Model<f32>, p: &Packe
         c_x0: layout::create(device, "c_x0", sized[5] * 16, rw),
         c_grid,
         c_pairs: layout::create(device, "c_pairs", sized[7] * PAIR_BYTES, rw),
-        c_ctl: layout::create(device, "c_ctl", 32, rw),
+        c_ctl,
         c_acc,
         c_args: layout::create(device, "c_args", 16, rw_usage() | wgpu::BufferUsages::INDIRECT),
         sized,
@@ -692,7 +699,7 @@ impl GpuSolver {
         enc.clear_buffer(&self.candidates, 0, Some(16));
         let contact = !self.packed.contact.edges.is_empty();
         if contact {
-            enc.clear_buffer(&self.scratch.c_ctl, 0, None);
+            enc.clear_buffer(&self.scratch.c_ctl, 0, Some(32));
         }
         {
             let mut pass =
