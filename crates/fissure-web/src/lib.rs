@@ -403,7 +403,7 @@ impl Sim {
     }
 
     /// What the page shows and the test reads, as JSON: scene, adapter, simulated time, frames, fps, fracture
-    /// events, pieces, gas volume now and at the start, simulation time per frame, substeps the contact pass ran
+    /// events, pieces, gas volume now and at the start, simulation time per frame, the step, substeps the contact pass ran
     /// and the pairs it found within reach (summed over them).
     pub fn stats(&self) -> Result<String, JsValue> {
         let s = self.inner()?;
@@ -411,7 +411,7 @@ impl Sim {
         let contact = w.gpu_solver().map(|g| g.contact_stats()).unwrap_or_default();
         let esc = |t: &str| t.replace('\\', "\\\\").replace('"', "\\\"");
         Ok(format!(
-            "{{\"scene\":\"{}\",\"title\":\"{}\",\"adapter\":\"{}\",\"time\":{},\"frames\":{},\"fps\":{},\"events\":{},\"pieces\":{},\"particles\":{},\"volume\":{},\"volume0\":{},\"sim_ms\":{},\"contact_steps\":{},\"contact_pairs\":{},\"notes\":[{}]}}",
+            "{{\"scene\":\"{}\",\"title\":\"{}\",\"adapter\":\"{}\",\"time\":{},\"frames\":{},\"fps\":{},\"events\":{},\"pieces\":{},\"particles\":{},\"volume\":{},\"volume0\":{},\"sim_ms\":{},\"dt\":{},\"contact_steps\":{},\"contact_pairs\":{},\"notes\":[{}]}}",
             esc(&s.name),
             esc(&s.title),
             esc(&s.adapter),
@@ -424,6 +424,7 @@ impl Sim {
             gas_volume(w),
             s.volume0,
             s.sim_ms,
+            s.dt,
             contact.steps,
             contact.near_total,
             s.notes.iter().map(|n| format!("\"{}\"", esc(n))).collect::<Vec<_>>().join(",")
