@@ -9,6 +9,8 @@
 //    between two sets of totals), then one pass of Coulomb friction;
 //    each particle's move is capped by the displacement bound (`GAMMA` times its nearest pair's gap), which rules
 //    out crossings whatever the impulses did.
+// As on the CPU, an element whose box meets no other body's box (and whose body does not collide with itself)
+// skips the search: away from contacts an element costs one box test per body.
 // Differences from the CPU pass: the grids are built at every substep (no Verlet list), and the impulses are
 // solved by Jacobi (each pair's update scaled by 1 / the most pairs any of its particles is in) instead of
 // Gauss–Seidel. Velocity changes are summed in fixed point with integer atomics (no float atomics): integer sums

@@ -99,3 +99,21 @@ fn each_kernel_binds_what_it_uses_and_at_most_eight_storage_buffers() {
     }
     assert_eq!(seen.len(), fissure_gpu::KERNEL_BINDINGS.len(), "KERNEL_BINDINGS lists a kernel no file has");
 }
+
+/// The value of `const NAME: f32 = VALUE;` in a WGSL source.
+fn wgsl_const(src: &str, name: &str) -> f64 {
+    let at = src.find(&format!("const {name}: f32 = ")).unwrap_or_else(|| panic!("no const {name}"));
+    let rest = &src[at..];
+    let value = &rest[rest.find('=').unwrap() + 1..rest.find(';').unwrap()];
+    value.trim().parse().unwrap_or_else(|e| panic!("{name}: {value:?}: {e}"))
+}
+
+/// The kernels' constants are their Rust twins' (`fissure_core::contact`, `fissure_core::forces::pressure`).
+#[test]
+fn constants_match_their_rust_twins() {
+    let (_, src) = SHADERS.iter().find(|(n, _)| *n == "contact.wgsl").unwrap();
+    assert_eq!(wgsl_const(src, "GAMMA"), fissure_core::contact::GAMMA);
+    assert_eq!(wgsl_const(src, "RELAX"), fissure_core::contact::RELAX);
+    let min_volume = wgsl_const(COMMON_WGSL, "MIN_VOLUME_FRACTION");
+    assert_eq!(min_volume, fissure_core::forces::pressure::MIN_VOLUME_FRACTION);
+}
