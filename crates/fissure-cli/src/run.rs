@@ -377,18 +377,19 @@ fn print_summary(scene: &Scene, cfg: &RunConfig, s: &RunSummary) {
         println!("| gas volume | {:.3} l |", v * 1e3);
     }
     let any = w.solver.as_any();
+    // The CPU keeps candidate lists between steps; the GPU builds its grids at every substep.
     let contact = match (any.downcast_ref::<fissure::CpuSolver<f32>>(), any.downcast_ref::<GpuSolver>()) {
-        (Some(c), _) => Some((c.contact_stats(), "candidate lists built")),
-        (_, Some(g)) => Some((g.contact_stats(), "grids built (one per substep on the GPU)")),
+        (Some(c), _) => Some((c.contact_stats(), c.contact_stats().builds, "candidate lists built")),
+        (_, Some(g)) => Some((g.contact_stats(), g.contact_stats().steps, "grids built (one per substep on the GPU)")),
         _ => None,
     };
-    if let Some((c, built)) = contact.filter(|_| w.model.has_contact()) {
+    if let Some((c, count, built)) = contact.filter(|_| w.model.has_contact()) {
         let per = |x: u64| x as f64 / c.steps.max(1) as f64;
         println!(
             "| contact | {:.1} pairs within reach and {:.1} pushed per step, {} {built}, {} moves capped |",
             per(c.near_total),
             per(c.pushed_total),
-            c.builds,
+            count,
             c.capped_total
         );
     }

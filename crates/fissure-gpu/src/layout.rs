@@ -228,6 +228,11 @@ impl ContactPack {
         ContactPack { part, body, edges, particles, h_max, cell: l_mean.max(2.0 * h_max).max(1e-6) }
     }
 
+    /// The model has contact (a contact body with triangles).
+    pub fn on(&self) -> bool {
+        !self.edges.is_empty()
+    }
+
     /// Buckets per grid: a power of two, at least twice the larger grid's items and at least 128 (the scan
     /// kernel's chunks).
     pub fn buckets(&self) -> usize {
@@ -435,7 +440,7 @@ impl<T: Pod> Mirror<T> {
     /// `slack`: room to grow by a quarter (fracture appends) before the first reallocation; without it the
     /// buffer is exact (a 1024² cloth's springs fill 100 of the 128 MiB a binding may hold on many devices).
     pub fn new(device: &wgpu::Device, queue: &wgpu::Queue, label: &'static str, data: &[T], slack: bool) -> Self {
-        let usage = wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::COPY_SRC;
+        let usage = RW;
         let capacity = (data.len() + if slack { data.len() / 4 } else { 0 }).max(4);
         let buffer = create(device, label, capacity * size_of::<T>(), usage);
         queue.write_buffer(&buffer, 0, bytemuck::cast_slice(data));
@@ -507,6 +512,10 @@ impl<T: Pod> Mirror<T> {
         (false, written)
     }
 }
+
+/// Storage that kernels write and the host may copy to and from.
+pub(crate) const RW: wgpu::BufferUsages =
+    wgpu::BufferUsages::STORAGE.union(wgpu::BufferUsages::COPY_DST).union(wgpu::BufferUsages::COPY_SRC);
 
 pub(crate) fn create(device: &wgpu::Device, label: &str, bytes: usize, usage: wgpu::BufferUsages) -> wgpu::Buffer {
     device.create_buffer(&wgpu::BufferDescriptor {

@@ -30,7 +30,9 @@ use crate::layout::{self, CLOCK_STRIDE, Clock, GpuCollider, MAX_GPU_HANDLES, Mir
 use crate::{GpuError, KERNEL_BINDINGS, READ_WRITE_BINDINGS, SHADERS, shader_source};
 
 mod bind;
-mod transfer;
+mod scratch;
+
+use scratch::{SCRATCH, Scratch, scratch, scratch_sizes};
 
 /// Workgroup size of every kernel.
 const WG: u32 = 64;
@@ -125,30 +127,9 @@ macro_rules! k {
     };
 }
 
-/// Buffers that depend on the model's size (everything but the state and the mirrors).
-struct Scratch {
-    tri_cross: wgpu::Buffer,
-    tri_f: wgpu::Buffer,
-    body_state: wgpu::Buffer,
-    partials: wgpu::Buffer,
-    cap_data: wgpu::Buffer,
-    cap_f: wgpu::Buffer,
-    c_x0: wgpu::Buffer,
-    c_grid: wgpu::Buffer,
-    c_pairs: wgpu::Buffer,
-    c_ctl: wgpu::Buffer,
-    c_acc: wgpu::Buffer,
-    c_args: wgpu::Buffer,
-    /// (triangles, bodies, partial floats, openings, particles with cap forces, particles in a contact model, grid
-    /// words, contact pairs) they hold.
-    sized: [usize; SCRATCH],
-}
-
-/// Bytes of a contact pair (`Pair` in WGSL).
-const PAIR_BYTES: usize = 80;
-
-/// Entries of [`Scratch::sized`].
-const SCRATCH: usize = 8;
+// After `k!`, which they use.
+mod contact;
+mod transfer;
 
 /// The wgpu solver (f32). See the module docs.
 pub struct GpuSolver {
@@ -219,73 +200,12 @@ fn groups(n: usize) -> (u32, u32) {
     (x, g.div_ceil(x))
 }
 
-/// Entries the scratch buffers need: triangles (with a surface pass), bodies, volume partials, capped openings,
-/// particles (with caps), particles (with contact), contact grid words, contact pairs (`capacity`, 0: automatic).
-fn scratch_sizes(m: &Model<f32>, p: &Packed, capacity: u32) -> [usize; SCRATCH] {
-    let surface = m.has_pressure() || m.has_wind();
-    let nt = if surface { m.tri_count() } else { 0 };
-    let (gx, gy) = groups(m.tri_count());
-    let np = if p.n_gas > 0 { (gx * gy * p.n_gas) as usize } else { 0 };
-    let caps = p.n_caps as usize;
-    let c = &p.contact;
-    let contact = !c.edges.is_empty();
-    let (n, grid, pairs) = if contact {
-        let pairs = if capacity > 0 { capacity as usize } else { 4 * c.particles + 1024 };
-        (m.particle_count(), 4 * c.buckets() + 1 + m.particle_count() + c.edges.len(), pairs)
-    } else {
-        (0, 0, 0)
-    };
-    [nt, m.body_count(), np, caps, if caps > 0 { m.particle_count() } else { 0 }, n, grid, pairs]
-}
-
 /// Positions and velocities: storage for the kernels, copies both ways, and a vertex buffer for the renderer
 /// ([`crate::render`] draws the position buffer in place).
 const STATE_USAGE: wgpu::BufferUsages = wgpu::BufferUsages::STORAGE
     .union(wgpu::BufferUsages::COPY_DST)
     .union(wgpu::BufferUsages::COPY_SRC)
     .union(wgpu::BufferUsages::VERTEX);
-
-fn scratch(device: &wgpu::Device, queue: &wgpu::Queue, m: &Model<f32>, p: &Packed, capacity: u32) -> Scratch {
-    let mut sized = scratch_sizes(m, p, capacity).map(|n| n + n / 4);
-    if capacity > 0 {
-        // A capacity the user set is exact.
-        sized[7] = capacity as usize;
-    }
-    // Every particle's contact words start empty: no velocity change, no bound (+inf), in no pair.
-    let acc: Vec<i32> = (0..sized[5]).flat_map(|_| [0, 0, 0, 0, 0, 0, 0x7f80_0000, 0]).collect();
-    let c_acc = layout::create(device, "c_acc", sized[5] * 32, rw_usage());
-    queue.write_buffer(&c_acc, 0, bytemuck::cast_slice(&acc));
-    // The counters, then each body's box (empty: minima u32::MAX, maxima 0; `contact_args` empties them after
-    // every substep).
-    let boxes = if sized[6] > 0 { sized[1] } else { 0 };
-    let ctl: Vec<u32> =
-        [0; 8].into_iter().chain((0..boxes).flat_map(|_| [u32::MAX, u32::MAX, u32::MAX, 0, 0, 0])).collect();
-    let c_ctl = layout::create(device, "c_ctl", ctl.len() * 4, rw_usage());
-    queue.write_buffer(&c_ctl, 0, bytemuck::cast_slice(&ctl));
-    let c_grid = layout::create(device, "c_grid", sized[6] * 4, rw_usage());
-    // The counts must start at zero (a new buffer is zeroed; written anyway, to be explicit).
-    queue.write_buffer(&c_grid, 0, &vec![0u8; sized[6] * 4]);
-    let rw = wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::COPY_SRC;
-    Scratch {
-        tri_cross: layout::create(device, "tri_cross", sized[0] * 16, rw),
-        tri_f: layout::create(device, "tri_f", sized[0] * 16, rw),
-        body_state: layout::create(device, "body_state", sized[1] * 16, rw),
-        partials: layout::create(device, "partials", sized[2] * 4, rw),
-        cap_data: layout::create(device, "cap_data", sized[3] * 32, rw),
-        cap_f: layout::create(device, "cap_f", sized[4] * 16, rw),
-        c_x0: layout::create(device, "c_x0", sized[5] * 16, rw),
-        c_grid,
-        c_pairs: layout::create(device, "c_pairs", sized[7] * PAIR_BYTES, rw),
-        c_ctl,
-        c_acc,
-        c_args: layout::create(device, "c_args", 16, rw_usage() | wgpu::BufferUsages::INDIRECT),
-        sized,
-    }
-}
-
-fn rw_usage() -> wgpu::BufferUsages {
-    wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::COPY_SRC
-}
 
 impl GpuSolver {
     /// A solver for `model` at its initial state, on a device the caller created (see
@@ -400,8 +320,7 @@ impl GpuSolver {
             wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
         );
         let cap = config.candidate_capacity.max(1);
-        let su = wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::COPY_SRC;
-        let candidates = layout::create(&device, "candidates", (4 + 2 * cap as usize) * 4, su);
+        let candidates = layout::create(&device, "candidates", (4 + 2 * cap as usize) * 4, layout::RW);
         let status = layout::create(&device, "status", 48, wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST);
         let clock_capacity = 64;
         let clock = Self::clock_buffer(&device, clock_capacity);
@@ -549,13 +468,6 @@ impl GpuSolver {
         self.passes.push(KERNEL_BINDINGS[k].0);
     }
 
-    /// [`GpuSolver::dispatch`] with the workgroup counts read from the contact pass's `c_args` (one per pair this
-    /// substep, written by `contact_args`).
-    fn dispatch_pairs(&mut self, pass: &mut wgpu::ComputePass<'_>, k: usize, cur: usize, clock: usize) {
-        self.bind_kernel(pass, k, cur, clock);
-        pass.dispatch_workgroups_indirect(&self.scratch.c_args, 0);
-    }
-
     /// Encodes the surface pass on state buffer `cur` (with the clock entry `clock`): crosses and volume
     /// partials, caps, volumes and pressures, then the per-corner forces and the caps' forces (`forces`), or the
     /// per-corner pressure shares alone (for the load check).
@@ -592,7 +504,7 @@ impl GpuSolver {
         let np = groups(self.particle_count());
         let (c0, c1) = (2 * k, 2 * k + 1);
         let cur = self.cur;
-        let contact = !self.packed.contact.edges.is_empty();
+        let contact = self.packed.contact.on();
         if contact {
             self.encode_contact_start(pass, c0);
         }
@@ -638,36 +550,6 @@ impl GpuSolver {
         }
     }
 
-    /// The contact pass's first half, on the state at the start of the substep: positions saved, both grids built.
-    fn encode_contact_start(&mut self, pass: &mut wgpu::ComputePass<'_>, clock: usize) {
-        let (n, ne) = (self.particle_count(), self.packed.contact.edges.len());
-        let cur = self.cur;
-        self.dispatch(pass, k!("contact_save"), cur, clock, groups(n));
-        self.dispatch(pass, k!("contact_edges"), cur, clock, groups(ne));
-        self.dispatch(pass, k!("contact_scan"), cur, clock, (1, 1));
-        self.dispatch(pass, k!("contact_scatter"), cur, clock, groups(n + ne));
-    }
-
-    /// The contact pass's second half, on the state after the integrator and the colliders (bound as the
-    /// destination, which the kernels change in place): pairs, impulses, the displacement bound.
-    fn encode_contact_end(&mut self, pass: &mut wgpu::ComputePass<'_>, m: &Model<f32>, clock: usize) {
-        let (n, ne) = (self.particle_count(), self.packed.contact.edges.len());
-        let np = groups(n);
-        let dst = 1 - self.cur;
-        self.dispatch(pass, k!("contact_moves"), dst, clock, np);
-        self.dispatch(pass, k!("contact_vt"), dst, clock, groups(m.tri_count()));
-        self.dispatch(pass, k!("contact_ee"), dst, clock, groups(ne));
-        self.dispatch(pass, k!("contact_args"), dst, clock, (1, 1));
-        self.dispatch_pairs(pass, k!("contact_prep"), dst, clock);
-        // An even count: the friction pass reads the totals the last (odd) iteration completed.
-        for it in 0..self.config.contact_iterations.next_multiple_of(2) {
-            let k = if it % 2 == 0 { k!("contact_jacobi_even") } else { k!("contact_jacobi_odd") };
-            self.dispatch_pairs(pass, k, dst, clock);
-        }
-        self.dispatch_pairs(pass, k!("contact_friction"), dst, clock);
-        self.dispatch(pass, k!("contact_apply"), dst, clock, np);
-    }
-
     fn check_model(&self, m: &Model<f32>) -> Result<(), GpuError> {
         if m.particle_count() != self.particle_count() {
             return Err(GpuError::StateMismatch { state: self.particle_count(), model: m.particle_count() });
@@ -697,7 +579,7 @@ impl GpuSolver {
         self.passes.clear();
         let mut enc = self.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("run") });
         enc.clear_buffer(&self.candidates, 0, Some(16));
-        let contact = !self.packed.contact.edges.is_empty();
+        let contact = self.packed.contact.on();
         if contact {
             enc.clear_buffer(&self.scratch.c_ctl, 0, Some(32));
         }
@@ -722,109 +604,29 @@ impl GpuSolver {
         self.queue.submit([enc.finish()]);
         self.time = start + steps as f64 * dt;
         let mut report = RunReport { steps, ..Default::default() };
+        let mut status = None;
         if read {
             let w: Vec<u32> = bytemuck::pod_collect_to_vec(&self.map_read(&self.status, 48).await?);
             report.spring_candidates = w[0];
             report.vertex_candidates = w[1];
-            if contact {
-                let c = &w[4..12];
-                let s = &mut self.contact_stats;
-                s.near = c[0].min(self.params_host.contact_n[2]) as usize;
-                s.candidates = s.near;
-                s.pushed = 0;
-                s.steps += c[7] as u64;
-                s.pushed_total += c[4] as u64;
-                s.near_total += c[5] as u64;
-                s.capped_total += c[6] as u64;
-                s.builds += c[7] as u64;
-                if c[3] > 0 {
-                    self.timers.steps += steps as u64;
-                    self.timers.total += t0.elapsed();
-                    return Err(GpuError::ContactCapacity { wanted: c[3], capacity: self.params_host.contact_n[2] });
-                }
-            }
-            if self.config.check_finite && w[2] != 0 {
-                self.timers.steps += steps as u64;
-                self.timers.total += t0.elapsed();
-                return Err(GpuError::NonFinite { from: start, to: self.time, dt });
-            }
+            status = Some(w);
         }
         self.timers.steps += steps as u64;
         self.timers.total += t0.elapsed();
+        if let Some(w) = status {
+            if contact {
+                self.take_contact_status(&w[4..12])?;
+            }
+            if self.config.check_finite && w[2] != 0 {
+                return Err(GpuError::NonFinite { from: start, to: self.time, dt });
+            }
+        }
         Ok(report)
     }
 
     /// Waits until the queue is idle (for timing).
     pub fn wait(&self) -> Result<(), GpuError> {
         self.device.poll(wgpu::PollType::wait_indefinitely()).map(|_| ()).map_err(|e| GpuError::Readback(e.to_string()))
-    }
-
-    /// The fracture candidates the last submission flagged.
-    pub fn candidates(&self) -> Result<Candidates, GpuError> {
-        let cap = self.config.candidate_capacity.max(1) as usize;
-        let bytes = crate::mapping::now(self.read_bytes(&self.candidates, ((4 + 2 * cap) * 4) as u64))?;
-        let w: Vec<u32> = bytemuck::pod_collect_to_vec(&bytes);
-        let list = |kind: usize| {
-            let n = (w[kind] as usize).min(cap);
-            let mut v = w[4 + kind * cap..4 + kind * cap + n].to_vec();
-            v.sort_unstable();
-            v.dedup();
-            v
-        };
-        Ok(Candidates { springs: list(0), vertices: list(1), overflow: w[0] as usize > cap || w[1] as usize > cap })
-    }
-
-    /// The net force on every particle at `state` \[N\] (gravity, springs, pressure, wind; not collisions): the
-    /// kernels' twin of `CpuSolver::compute_forces`. Replaces the GPU state with `state`.
-    pub fn compute_forces(&mut self, m: &Model<f32>, state: &State<f32>) -> Result<Vec<Vec3>, GpuError> {
-        self.check_model(m)?;
-        self.upload_state(state)?;
-        self.write_clock(m, state.time, 1.0, 1);
-        self.passes.clear();
-        let mut enc = self.device.create_command_encoder(&Default::default());
-        {
-            let mut pass = enc.begin_compute_pass(&Default::default());
-            let cur = self.cur;
-            if m.has_pressure() || m.has_wind() {
-                self.encode_surface(&mut pass, m, cur, 0, true);
-            }
-            self.dispatch(&mut pass, k!("net_forces"), cur, 0, groups(self.particle_count()));
-        }
-        self.queue.submit([enc.finish()]);
-        let f = crate::mapping::now(self.read_vec4(&self.state[1 - self.cur], 2 * self.particle_count()))?;
-        Ok(f.iter().step_by(2).map(|v| Vec3::new(v[0], v[1], v[2])).collect())
-    }
-
-    /// What the contact pass did: `near` is the pairs within reach in the last substep of the last submission;
-    /// the totals and `steps` sum over every substep run (`builds` counts grid builds: one per substep). Zeros
-    /// without contact.
-    pub fn contact_stats(&self) -> fissure_core::ContactStats {
-        self.contact_stats
-    }
-
-    /// The contact pairs within reach in the last substep, in no particular order (the kernels list them as they
-    /// find them): each pair's four particles (a vertex then its triangle's corners, or one edge's ends then the
-    /// other's) and its gap at the start of the substep \[m\].
-    pub fn contact_pairs(&self) -> Result<Vec<([u32; 4], f32)>, GpuError> {
-        if self.packed.contact.edges.is_empty() {
-            return Ok(Vec::new());
-        }
-        let ctl: Vec<u32> =
-            bytemuck::pod_collect_to_vec(&crate::mapping::now(self.read_bytes(&self.scratch.c_ctl, 32))?);
-        let n = (ctl[0] as usize).min(self.scratch.sized[7]);
-        let bytes = crate::mapping::now(self.read_bytes(&self.scratch.c_pairs, (n * PAIR_BYTES) as u64))?;
-        let words: Vec<u32> = bytemuck::pod_collect_to_vec(&bytes[..n * PAIR_BYTES]);
-        Ok(words.chunks_exact(PAIR_BYTES / 4).map(|w| ([w[0], w[1], w[2], w[3]], f32::from_bits(w[11]))).collect())
-    }
-
-    /// Volume \[m^3\] and net pressure \[Pa\] of each body as of the last surface pass (zeros for bodies without gas).
-    pub fn body_volumes_pressures(&self, m: &Model<f32>) -> Result<Vec<(f32, f32)>, GpuError> {
-        let nb = m.body_count();
-        let v = crate::mapping::now(self.read_vec4(&self.scratch.body_state, nb))?;
-        Ok(v.iter()
-            .zip(&self.packed.bodies)
-            .map(|(x, b)| if b.gas_slot == layout::NONE { (0.0, 0.0) } else { (x[0], x[1]) })
-            .collect())
     }
 }
 

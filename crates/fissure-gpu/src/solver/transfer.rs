@@ -1,5 +1,6 @@
-//! Moving data between the host and the GPU: the state (upload, read-back), the model after a fracture
-//! (re-packed and uploaded block-wise), and the [`Solver`] implementation `World` drives.
+//! Moving data between the host and the GPU: the state (upload, read-back), what the kernels found (fracture
+//! candidates, net forces, volumes and pressures), the model after a fracture (re-packed and uploaded
+//! block-wise), and the [`Solver`] implementation `World` drives.
 
 use super::*;
 use crate::layout::{GpuParticle, GpuSpring};
@@ -93,6 +94,52 @@ impl GpuSolver {
     pub(super) async fn read_vec4(&self, src: &wgpu::Buffer, n: usize) -> Result<Vec<[f32; 4]>, GpuError> {
         let bytes = self.read_bytes(src, (n * 16) as u64).await?;
         Ok(bytemuck::pod_collect_to_vec::<u8, [f32; 4]>(&bytes[..n * 16]))
+    }
+
+    /// The fracture candidates the last submission flagged.
+    pub fn candidates(&self) -> Result<Candidates, GpuError> {
+        let cap = self.config.candidate_capacity.max(1) as usize;
+        let bytes = crate::mapping::now(self.read_bytes(&self.candidates, ((4 + 2 * cap) * 4) as u64))?;
+        let w: Vec<u32> = bytemuck::pod_collect_to_vec(&bytes);
+        let list = |kind: usize| {
+            let n = (w[kind] as usize).min(cap);
+            let mut v = w[4 + kind * cap..4 + kind * cap + n].to_vec();
+            v.sort_unstable();
+            v.dedup();
+            v
+        };
+        Ok(Candidates { springs: list(0), vertices: list(1), overflow: w[0] as usize > cap || w[1] as usize > cap })
+    }
+
+    /// Volume \[m^3\] and net pressure \[Pa\] of each body as of the last surface pass (zeros for bodies without gas).
+    pub fn body_volumes_pressures(&self, m: &Model<f32>) -> Result<Vec<(f32, f32)>, GpuError> {
+        let nb = m.body_count();
+        let v = crate::mapping::now(self.read_vec4(&self.scratch.body_state, nb))?;
+        Ok(v.iter()
+            .zip(&self.packed.bodies)
+            .map(|(x, b)| if b.gas_slot == layout::NONE { (0.0, 0.0) } else { (x[0], x[1]) })
+            .collect())
+    }
+
+    /// The net force on every particle at `state` \[N\] (gravity, springs, pressure, wind; not collisions): the
+    /// kernels' twin of `CpuSolver::compute_forces`. Replaces the GPU state with `state`.
+    pub fn compute_forces(&mut self, m: &Model<f32>, state: &State<f32>) -> Result<Vec<Vec3>, GpuError> {
+        self.check_model(m)?;
+        self.upload_state(state)?;
+        self.write_clock(m, state.time, 1.0, 1);
+        self.passes.clear();
+        let mut enc = self.device.create_command_encoder(&Default::default());
+        {
+            let mut pass = enc.begin_compute_pass(&Default::default());
+            let cur = self.cur;
+            if m.has_pressure() || m.has_wind() {
+                self.encode_surface(&mut pass, m, cur, 0, true);
+            }
+            self.dispatch(&mut pass, k!("net_forces"), cur, 0, groups(self.particle_count()));
+        }
+        self.queue.submit([enc.finish()]);
+        let f = crate::mapping::now(self.read_vec4(&self.state[1 - self.cur], 2 * self.particle_count()))?;
+        Ok(f.iter().step_by(2).map(|v| Vec3::new(v[0], v[1], v[2])).collect())
     }
 
     /// Re-packs `m` and uploads what differs from the GPU copy (block-wise; after a fracture event that is a few
