@@ -8,7 +8,7 @@
 //! *origin* (the particle it was split from), so the virtual nodes of one fracture, which coincide when they are
 //! created, do not push each other apart.
 //!
-//! Each substep, after the integrator and the colliders (`solver/contact.rs`):
+//! Each substep, after the integrator and the colliders (`solver/contact/`):
 //! 1. **Candidates** (broad phase): a hashed uniform grid ([`grid::HashGrid`], counting sort, as the GPU builds it)
 //!    of vertices for vertex–triangle pairs and of edge midpoints for edge–edge pairs gives every pair closer
 //!    than a search radius `R` at the step's start, each element's partners in index order. The list is kept

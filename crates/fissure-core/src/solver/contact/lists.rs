@@ -1,0 +1,289 @@
+//! The candidate lists of the contact pass (a Verlet list, see the [`crate::contact`] module): built from the hash
+//! grids over every element, or refreshed around the particles that drifted.
+
+use super::*;
+
+/// Candidate searches per element cost a grid query (~0.2–1 µs): parallel from this many elements. Measured
+/// (2026-11-23): from 1,024, the fracture scene's builds woke the pool for ~1,400 triangles and spent more in
+/// wake-ups (`sched_yield` 5 % of its run) than they saved.
+const PAR_BUILD: usize = 8 * TASK;
+
+impl<R: Real> ContactScratch<R> {
+    /// Finds every allowed pair closer than `radius` at `x0` (the Verlet list).
+    pub(super) fn build(&mut self, m: &Model<R>, radius: f64) {
+        self.xb.clone_from(&self.x0);
+        self.lists(m, radius, None);
+        self.radius = radius;
+        self.stats.builds += 1;
+    }
+
+    /// Refreshes the lists around the particles that drifted more than `slack` since their reference positions
+    /// (`hot`): their references move to `x0`; the triangles with a hot corner and the edges with a hot end are
+    /// searched again, and so is each hot vertex against the triangle centroids near it (measured on the folding
+    /// 128² cloth, 2026-11-24: refreshes 12.9 → 11.2 ms per step against searching from every triangle near a
+    /// hot vertex, the same lists); their pairs replace the old ones in the lists (merged in index order). Every
+    /// allowed pair closer than `radius` at the reference positions is then listed, as after a build; a pair that
+    /// no longer is may stay (the per-step distances drop it), so a refreshed list gives the same pairs within
+    /// reach, in the same order, as a fresh one. False (nothing done) when more than a quarter of the particles
+    /// are hot: a build is then cheaper (measured: with half, the 64² cloth_fold scene spent 12.7 s in contact
+    /// against 10.2 s with builds alone; with a quarter, 7.9 s).
+    pub(super) fn refresh(&mut self, m: &Model<R>, slack: f64) -> bool {
+        let el = self.el.as_ref().expect("elements prepared");
+        let (x0, xb) = (&self.x0, &self.xb);
+        let hot: Vec<u32> = el
+            .particles
+            .iter()
+            .copied()
+            .filter(|&i| (x0[i as usize].to_dvec3() - xb[i as usize].to_dvec3()).length() > slack)
+            .collect();
+        if hot.len() * 4 > el.particles.len() {
+            return false;
+        }
+        for &i in &hot {
+            self.xb[i as usize] = self.x0[i as usize];
+        }
+        self.lists(m, self.radius, Some(&hot));
+        self.stats.refreshes += 1;
+        true
+    }
+
+    /// The lists' search at the reference positions `xb`: over every element (`hot` None), or around the hot
+    /// particles (see [`ContactScratch::refresh`]).
+    fn lists(&mut self, m: &Model<R>, radius: f64, hot: Option<&[u32]>) {
+        let el = self.el.as_ref().expect("elements prepared");
+        let x0 = &self.xb;
+        let x = |i: u32| x0[i as usize].to_dvec3();
+        // Mean and longest edge set the cells and the edge query's reach.
+        let (mut l_sum, mut l_max) = (0.0, 0.0f64);
+        for &[a, b] in &el.edges {
+            let l = (x(b) - x(a)).length();
+            l_sum += l;
+            l_max = l_max.max(l);
+        }
+        let l_mean = l_sum / el.edges.len().max(1) as f64;
+        let cell = radius.max(l_mean).max(1e-9);
+        let parts = &el.particles;
+        let edges = &el.edges;
+        let allowed = |a: u32, b: u32| a != b || m.body_self_contact[a as usize];
+        // Each body's box: an element of a body that does not collide with itself searches only where another
+        // body's box reaches, and a body whose box meets no other (and that does not collide with itself) is
+        // left out of the grids: away from contacts the build costs one pass over the particles.
+        let mut boxes = vec![(DVec3::INFINITY, DVec3::NEG_INFINITY); m.body_count()];
+        for &i in parts {
+            let (b, p) = (m.particle_body[i as usize] as usize, x(i));
+            boxes[b] = (boxes[b].0.min(p), boxes[b].1.max(p));
+        }
+        let worth = |body: u32, lo: DVec3, hi: DVec3| {
+            m.body_self_contact[body as usize]
+                || boxes
+                    .iter()
+                    .enumerate()
+                    .any(|(b, &(blo, bhi))| b != body as usize && blo.cmple(hi).all() && lo.cmple(bhi).all())
+        };
+        let nb = m.body_count();
+        self.gaps.clear();
+        if nb <= CLOSING_BODIES {
+            self.gaps.extend((0..nb * nb).map(|k| {
+                let ((alo, ahi), (blo, bhi)) = (boxes[k / nb], boxes[k % nb]);
+                (alo - bhi).max(blo - ahi).max(DVec3::ZERO).length()
+            }));
+        }
+        let pad = radius + l_max;
+        let active: Vec<bool> = (0..m.body_count())
+            .map(|b| boxes[b].0.is_finite() && worth(b as u32, boxes[b].0 - pad, boxes[b].1 + pad))
+            .collect();
+        // Only elements that can meet another body (or their own, if it collides with itself) go into the grids:
+        // the ball a small piece broke from is not searched far from the piece.
+        let pad = DVec3::splat(radius);
+        let in_grid = |v: u32, p: DVec3| {
+            let b = m.particle_body[v as usize];
+            active[b as usize] && worth(b, p - pad, p + pad)
+        };
+        self.grid.build(cell, parts.len(), |k| {
+            let (v, p) = (parts[k], x(parts[k]));
+            in_grid(v, p).then_some(p)
+        });
+        // Edge midpoints in cells of `radius + l_max`: an edge's query box (its box grown by the reach below)
+        // spans at most 3 cells a side.
+        self.eboxes.clear();
+        self.eboxes.extend(edges.iter().map(|&[i, j]| {
+            let (p, q) = (x(i), x(j));
+            [p.min(q), p.max(q)]
+        }));
+        let eboxes = &self.eboxes;
+        self.egrid.build(radius + l_max, edges.len(), |k| {
+            let [lo, hi] = eboxes[k];
+            let b = m.particle_body[edges[k][0] as usize];
+            (active[b as usize] && worth(b, lo - pad, hi + pad)).then(|| 0.5 * (lo + hi))
+        });
+        // A triangle's search box, and whether a build searches from it.
+        let tri_box = |[a, b, c]: [DVec3; 3]| (a.min(b).min(c) - radius, a.max(b).max(c) + radius);
+        let searched = |t: u32, (lo, hi): (DVec3, DVec3)| {
+            let tb = m.tri_body[t as usize];
+            active[tb as usize] && worth(tb, lo, hi)
+        };
+        // A refresh searches again from the triangles with a hot corner and the edges with a hot end, and from
+        // each hot vertex the triangles (without a hot corner) whose centroids are within `radius + l_max` of it
+        // (every triangle with a point within `radius` of it): cheaper than searching from every triangle near a
+        // hot vertex, since a hot vertex's query visits the triangles near it once.
+        let (mut tris_again, mut edges_again) = (Vec::new(), Vec::new());
+        let (mut tmask, mut emask, mut is_hot) = (Vec::new(), Vec::new(), Vec::new());
+        if let Some(hot) = hot {
+            is_hot = vec![false; m.particle_count()];
+            hot.iter().for_each(|&i| is_hot[i as usize] = true);
+            self.tgrid.build(cell, el.tris.len(), |k| {
+                let t = el.tris[k];
+                let corners = m.tri_indices[t as usize].map(x);
+                searched(t, tri_box(corners)).then(|| corners.iter().sum::<DVec3>() / 3.0)
+            });
+            tmask = vec![false; m.tri_count()];
+            for &t in &el.tris {
+                if m.tri_indices[t as usize].iter().any(|&i| is_hot[i as usize]) {
+                    tmask[t as usize] = true;
+                }
+            }
+            tris_again.extend(el.tris.iter().copied().filter(|&t| tmask[t as usize]));
+            emask = edges.iter().map(|&[i, j]| is_hot[i as usize] || is_hot[j as usize]).collect();
+            edges_again.extend(el.edge_ids.iter().copied().filter(|&e| emask[e as usize]));
+        }
+        let (grid, egrid) = (&self.grid, &self.egrid);
+        let r2 = radius * radius;
+        // Vertex `v` at `p` against triangle `t` (corners `tv` at `c`, search box `bx`), from either side of a
+        // search: a pair if allowed and closer than `radius`.
+        let vt_near = |v: u32, p: DVec3, t: u32, tv: [u32; 3], c: [DVec3; 3], (lo, hi): (DVec3, DVec3)| {
+            // The box first (one load; most points a query visits are outside it).
+            if p.cmplt(lo).any() || p.cmpgt(hi).any() {
+                return false;
+            }
+            if tv.iter().any(|&u| same_origin(m, u, v)) || !allowed(m.particle_body[v as usize], m.tri_body[t as usize])
+            {
+                return false;
+            }
+            let w = closest_on_triangle(p, c[0], c[1], c[2]);
+            (p - (w[0] * c[0] + w[1] * c[1] + w[2] * c[2])).length_squared() < r2
+        };
+        let mut vt = Vec::new();
+        let tris = if hot.is_some() { &tris_again } else { &el.tris };
+        extend_chunks(&mut vt, tris, PAR_BUILD, |tris, out| {
+            for &t in tris {
+                let tv = m.tri_indices[t as usize];
+                let c = tv.map(x);
+                let bx = tri_box(c);
+                if !searched(t, bx) {
+                    continue;
+                }
+                let from = out.len();
+                grid.query(bx.0, bx.1, |k| {
+                    let v = parts[k as usize];
+                    if vt_near(v, x(v), t, tv, c, bx) {
+                        out.push([v, t]);
+                    }
+                });
+                // Partners in index order, whatever the grid's cells: the pairs' order (and so the impulses'
+                // Gauss–Seidel order) does not depend on the cell size.
+                out[from..].sort_unstable();
+            }
+        });
+        if let Some(hot) = hot {
+            // From each hot vertex, the same tests as from a triangle (the vertex in the grid, the triangle in the
+            // centroid grid, which holds the searched ones, then `vt_near`), so the same pairs.
+            let (tgrid, tmask) = (&self.tgrid, &tmask);
+            let reach = DVec3::splat(radius + l_max);
+            extend_chunks(&mut vt, hot, PAR_BUILD, |hot, out| {
+                for &v in hot {
+                    let p = x(v);
+                    if !in_grid(v, p) {
+                        continue;
+                    }
+                    tgrid.query(p - reach, p + reach, |k| {
+                        let t = el.tris[k as usize];
+                        if tmask[t as usize] {
+                            return;
+                        }
+                        let tv = m.tri_indices[t as usize];
+                        let c = tv.map(x);
+                        if vt_near(v, p, t, tv, c, tri_box(c)) {
+                            out.push([v, t]);
+                        }
+                    });
+                }
+            });
+        }
+        let reach = radius + 0.5 * l_max;
+        let mut ee = Vec::new();
+        let ids = if hot.is_some() { &edges_again } else { &el.edge_ids };
+        let both = hot.is_some();
+        extend_chunks(&mut ee, ids, PAR_BUILD, |ks, out| {
+            for &e in ks {
+                let e = e as usize;
+                let [a0, a1] = edges[e];
+                let (p, q) = (x(a0), x(a1));
+                let [elo, ehi] = eboxes[e];
+                let (lo, hi) = (elo - reach, ehi + reach);
+                let (near_lo, near_hi) = (elo - radius, ehi + radius);
+                let eb = m.particle_body[a0 as usize];
+                if !active[eb as usize] || !worth(eb, lo, hi) {
+                    continue;
+                }
+                let from = out.len();
+                egrid.query(lo, hi, |f| {
+                    let f = f as usize;
+                    if f == e || (f < e && !both) {
+                        return;
+                    }
+                    // Boxes first: most edges the query reaches are not within `radius`.
+                    let [flo, fhi] = eboxes[f];
+                    if fhi.cmplt(near_lo).any() || flo.cmpgt(near_hi).any() {
+                        return;
+                    }
+                    let [b0, b1] = edges[f];
+                    let (r, s) = (x(b0), x(b1));
+                    if [a0, a1].iter().any(|&a| same_origin(m, a, b0) || same_origin(m, a, b1))
+                        || !allowed(eb, m.particle_body[b0 as usize])
+                    {
+                        return;
+                    }
+                    let (u, v) = closest_on_segments(p, q, r, s);
+                    if ((p + u * (q - p)) - (r + v * (s - r))).length_squared() < r2 {
+                        out.push([e.min(f) as u32, e.max(f) as u32]);
+                    }
+                });
+                out[from..].sort_unstable();
+            }
+        });
+        if hot.is_some() {
+            // Old pairs of the searched elements out, their new pairs in, in index order: (t, v) and (e, f).
+            self.vt.retain(|&[v, t]| !tmask[t as usize] && !is_hot[v as usize]);
+            vt.sort_unstable_by_key(|&[v, t]| (t, v));
+            merge_sorted(&mut self.vt, vt, |&[v, t]| (t, v));
+            ee.sort_unstable();
+            ee.dedup();
+            self.ee.retain(|&[e, f]| !emask[e as usize] && !emask[f as usize]);
+            merge_sorted(&mut self.ee, ee, |&p| p);
+        } else {
+            self.vt = vt;
+            self.ee = ee;
+        }
+    }
+}
+
+/// Merges `new` into `list`, both sorted by `key`.
+fn merge_sorted<T: Copy, K: Ord>(list: &mut Vec<T>, new: Vec<T>, key: impl Fn(&T) -> K) {
+    if new.is_empty() {
+        return;
+    }
+    let mut out = Vec::with_capacity(list.len() + new.len());
+    let (mut i, mut j) = (0, 0);
+    while i < list.len() && j < new.len() {
+        if key(&list[i]) <= key(&new[j]) {
+            out.push(list[i]);
+            i += 1;
+        } else {
+            out.push(new[j]);
+            j += 1;
+        }
+    }
+    out.extend_from_slice(&list[i..]);
+    out.extend_from_slice(&new[j..]);
+    *list = out;
+}
