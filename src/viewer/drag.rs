@@ -34,11 +34,12 @@ impl App {
         }
     }
 
-    /// Moves the grabbed particle's pin towards the cursor over this frame ([`crate::World::steer_grab`]).
-    pub(super) fn move_pin(&mut self) {
+    /// Moves the grabbed particle's pin towards the cursor over this frame's `span` \[s\]
+    /// ([`crate::World::steer_grab`]).
+    pub(super) fn move_pin(&mut self, span: f64) {
         if let Some(d) = &self.drag {
             let (h, i, target) = (d.handle, d.particle, d.target.as_dvec3());
-            self.world.steer_grab(h, i, target, self.options.frame_time);
+            self.world.steer_grab(h, i, target, span);
         }
     }
 }

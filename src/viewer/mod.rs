@@ -21,11 +21,13 @@
 //! allows (lavapipe on Xvfb does), otherwise drawn again offscreen from the same state and camera.
 
 mod drag;
+mod pace;
 mod script;
 use drag::Drag;
+use pace::Pacer;
 pub use script::Action;
 
-use crate::gpu::render::{Camera, Offscreen, Positions, Readback, Renderer, View, targets};
+use crate::gpu::render::{Camera, Offscreen, Positions, Readback, Renderer, View, samples_for, targets};
 use crate::gpu::{GpuError, wgpu};
 use crate::output::{OutputError, save_png};
 use crate::{FractureKind, Stage, StepError, TopologyDelta, World};
@@ -45,8 +47,15 @@ pub struct ViewerOptions {
     pub title: String,
     /// Window size \[px\].
     pub size: [u32; 2],
-    /// Simulated time per drawn frame \[s\]. Default 1/60.
+    /// Simulated time per drawn frame \[s\] when not [`ViewerOptions::real_time`], and per frame advanced with
+    /// the `n` key. Default 1/60.
     pub frame_time: f64,
+    /// Keep simulated time in pace with the wall clock (default): each frame advances the simulation by the wall
+    /// time since the last one, in whole steps of `dt` (the remainder carried to the next frame), so a scene runs
+    /// at its real speed whatever the frame rate. A frame advances at most [`MAX_LAG_FRAMES`] × `frame_time`: a
+    /// machine too slow for the scene shows it in slow motion instead of falling ever further behind. False:
+    /// every frame advances `frame_time` (reproducible: a scripted session replays the same).
+    pub real_time: bool,
     /// Close after this many frames (for tests and screenshots).
     pub exit_after: Option<usize>,
     /// Write the last frame here before closing.
@@ -63,6 +72,7 @@ impl Default for ViewerOptions {
             title: "fissure".into(),
             size: [1280, 720],
             frame_time: 1.0 / 60.0,
+            real_time: true,
             exit_after: None,
             screenshot: None,
             paused: false,
@@ -71,6 +81,9 @@ impl Default for ViewerOptions {
     }
 }
 
+/// In real time ([`ViewerOptions::real_time`]), the most simulated time one frame catches up, in frames.
+pub const MAX_LAG_FRAMES: f64 = 4.0;
+
 /// What a session did.
 #[derive(Clone, Debug)]
 pub struct ViewerReport {
@@ -78,6 +91,15 @@ pub struct ViewerReport {
     pub frames: usize,
     /// Simulated time at the end \[s\].
     pub time: f64,
+    /// Simulated time advanced while the simulation ran (not paused) \[s\], and the wall time of those frames
+    /// \[s\]: their ratio is the real-time factor (1: the scene ran at its real speed).
+    pub simulated: f64,
+    /// See `simulated`.
+    pub wall: f64,
+    /// Mean time per frame spent simulating and drawing \[ms\] (frames that simulated; drawing: all frames).
+    pub sim_ms: f64,
+    /// See `sim_ms`.
+    pub draw_ms: f64,
     /// Fracture events (including punctures).
     pub events: usize,
     /// The adapter drawn on.
@@ -151,6 +173,10 @@ pub fn run(
         draw_ms: 0.0,
         stage_ms: [0.0; Stage::ALL.len()],
         screenshot: None,
+        last_sim: None,
+        pacer: Pacer::default(),
+        pace: 0.0,
+        totals: Totals::default(),
     };
     app.paused = app.options.paused;
     app.camera = Camera::framing(&app.world.model, &app.world.state);
@@ -158,9 +184,14 @@ pub fn run(
     if let Some(e) = app.error {
         return Err(e);
     }
+    let t = &app.totals;
     Ok(ViewerReport {
         frames: app.frames,
         time: app.world.state.time,
+        simulated: t.simulated,
+        wall: t.wall,
+        sim_ms: if t.sim_frames > 0 { t.sim_ms / t.sim_frames as f64 } else { 0.0 },
+        draw_ms: if app.frames > 0 { t.draw_ms / app.frames as f64 } else { 0.0 },
         events: app.world.events.len(),
         adapter: app.gfx.as_ref().map(|g| g.adapter.clone()).unwrap_or_default(),
         screenshot: app.screenshot,
@@ -202,6 +233,22 @@ struct App {
     draw_ms: f64,
     stage_ms: [f64; Stage::ALL.len()],
     screenshot: Option<(PathBuf, bool)>,
+    /// When the last frame's simulation started (real time; `None` after a pause).
+    last_sim: Option<Instant>,
+    pacer: Pacer,
+    /// Simulated time per wall time over the last frames (smoothed).
+    pace: f64,
+    totals: Totals,
+}
+
+/// Sums over the session, for [`ViewerReport`].
+#[derive(Default)]
+struct Totals {
+    simulated: f64,
+    wall: f64,
+    sim_ms: f64,
+    sim_frames: usize,
+    draw_ms: f64,
 }
 
 impl App {
@@ -261,9 +308,10 @@ impl App {
             color_space: wgpu::SurfaceColorSpace::Auto,
         };
         surface.configure(&device, &config);
-        let mut renderer = Renderer::new(&device, &queue, format);
+        let samples = samples_for(&info);
+        let mut renderer = Renderer::with_samples(&device, &queue, format, samples);
         renderer.set_model(&self.world.model, self.world.state.time);
-        let (msaa, depth) = targets(&device, format, config.width, config.height);
+        let (msaa, depth) = targets(&device, format, config.width, config.height, samples);
         let adapter_name = format!("{} ({:?}, {:?})", info.name, info.backend, info.device_type);
         self.gfx = Some(Gfx { window, surface, device, queue, config, renderer, msaa, depth, adapter: adapter_name });
         Ok(())
@@ -277,7 +325,7 @@ impl App {
             g.config.width = w;
             g.config.height = h;
             g.surface.configure(&g.device, &g.config);
-            (g.msaa, g.depth) = targets(&g.device, g.config.format, w, h);
+            (g.msaa, g.depth) = targets(&g.device, g.config.format, w, h, g.renderer.samples());
         }
     }
 
@@ -345,14 +393,30 @@ impl App {
 
     /// One frame of simulation through [`World::advance`], the grabbed particle's pin first set to move towards
     /// the cursor over the frame (the solver moves pinned particles exactly as their handle says, at every step).
-    fn simulate(&mut self) -> Result<(), StepError> {
+    /// In real time the frame covers the wall time since the last one (see [`ViewerOptions::real_time`]);
+    /// `step`: one `frame_time` whatever the clock (the `n` key).
+    fn simulate(&mut self, step: bool) -> Result<(), StepError> {
         let t0 = Instant::now();
+        let frame_time = self.options.frame_time;
+        // The wall time this frame stands for: since the last frame's simulation (the first: one frame time).
+        let wall = self.last_sim.map_or(frame_time, |t| t0.duration_since(t).as_secs_f64());
+        let span =
+            if self.options.real_time && !step { self.pacer.span(wall, frame_time, self.dt) } else { frame_time };
+        self.totals.wall += wall;
+        let pace = span / wall.max(1e-9);
+        self.pace = if self.pace == 0.0 { pace } else { 0.9 * self.pace + 0.1 * pace };
+        self.last_sim = Some(t0);
         self.world.reset_timers();
-        self.move_pin();
-        if self.world.advance(self.options.frame_time, self.dt)?.topology_changed {
-            self.model_changed();
+        if span > 0.0 {
+            self.move_pin(span);
+            if self.world.advance(span, self.dt)?.topology_changed {
+                self.model_changed();
+            }
         }
+        self.totals.simulated += span;
         self.sim_ms = t0.elapsed().as_secs_f64() * 1e3;
+        self.totals.sim_ms += self.sim_ms;
+        self.totals.sim_frames += 1;
         let t = self.world.timers();
         for (k, s) in Stage::ALL.iter().enumerate() {
             self.stage_ms[k] = t.time(*s).as_secs_f64() * 1e3;
@@ -372,10 +436,11 @@ impl App {
         let on = |b: bool| if b { "on" } else { "off" };
         vec![
             format!(
-                "t = {:.3} s  {}  {:.0} fps  sim {:.1} ms/frame  draw {:.1} ms",
+                "t = {:.3} s  {}  {:.0} fps  {}  sim {:.1} ms/frame  draw {:.1} ms",
                 w.state.time,
                 if self.paused { "PAUSED" } else { "running" },
                 self.fps,
+                format!("{:.2}x real time{}", self.pace, if self.options.real_time { "" } else { " (fixed steps)" }),
                 self.sim_ms,
                 self.draw_ms
             ),
@@ -431,8 +496,11 @@ impl App {
     fn redraw(&mut self, event_loop: &ActiveEventLoop) -> Result<(), ViewerError> {
         self.play_script(event_loop);
         if !self.paused || self.step_once {
-            self.step_once = false;
-            self.simulate()?;
+            let step = std::mem::take(&mut self.step_once);
+            self.simulate(step)?;
+        }
+        if self.paused {
+            self.last_sim = None; // the time paused is not to be caught up
         }
         let overlay = self.overlay();
         let now = Instant::now();
@@ -477,6 +545,7 @@ impl App {
         };
         g.queue.present(frame);
         self.draw_ms = t0.elapsed().as_secs_f64() * 1e3;
+        self.totals.draw_ms += self.draw_ms;
         self.frames += 1;
         if last {
             if let Some(path) = self.options.screenshot.clone() {

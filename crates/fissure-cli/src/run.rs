@@ -416,17 +416,22 @@ fn print_summary(scene: &Scene, cfg: &RunConfig, s: &RunSummary) {
 /// `fissure view SCENE`.
 pub const VIEW_USAGE: &str = "\
 usage: fissure view SCENE [--set KEY=VALUE ...] [--size WxH] [--paused] [--frames N --screenshot FILE]
-                          [--script ACTIONS]
+                          [--script ACTIONS] [--fixed]
 
   Opens a window on the scene and runs it on the CPU. Mouse: left-drag a body to pull it (past a
   cloth's strength it tears), left-drag elsewhere to orbit, wheel to zoom, right-click to puncture.
   Keys: space pause, n step, w wind, p pressure, f wireframe, v mass points, s surfaces, c colour
   by strain, k crack edges, r restart, q or esc quit.
 
+  The simulation keeps pace with the wall clock: each frame advances it by the time since the last
+  (at most 4/60 s: a machine too slow for the scene shows it in slow motion). On exit it prints
+  the real-time factor and the mean simulation and drawing time per frame.
+
   --frames N --screenshot FILE   close after N frames and save the last one (for tests)
   --script ACTIONS               replay input, e.g. \"20:puncture-body:0;25:key:f;30:puncture:480,270\"
                                  (also drag-body:B,DX,DY: grab body B's centre, pull it DX,DY pixels;
-                                 release:)";
+                                 release:); implies --fixed, so a replay is the same every time
+  --fixed                        advance 1/60 s per frame whatever the clock";
 
 pub fn view(args: &[String]) -> Result<(), Box<dyn std::error::Error>> {
     let mut opts = fissure::viewer::ViewerOptions::default();
@@ -438,6 +443,7 @@ pub fn view(args: &[String]) -> Result<(), Box<dyn std::error::Error>> {
         match a.as_str() {
             "--size" => opts.size = parse_size(&value("--size")?)?,
             "--paused" => opts.paused = true,
+            "--fixed" => opts.real_time = false,
             "--set" => overrides.push(Override::parse(&value("--set")?)?),
             "--frames" => opts.exit_after = Some(value("--frames")?.parse()?),
             "--screenshot" => opts.screenshot = Some(value("--screenshot")?.into()),
@@ -453,6 +459,9 @@ pub fn view(args: &[String]) -> Result<(), Box<dyn std::error::Error>> {
         }
     }
     let path = scene_path.ok_or("which scene? e.g. fissure view scenes/fracture.toml")?;
+    if !opts.script.is_empty() {
+        opts.real_time = false;
+    }
     if opts.screenshot.is_some() && opts.exit_after.is_none() {
         opts.exit_after = Some(60);
     }
@@ -467,6 +476,17 @@ pub fn view(args: &[String]) -> Result<(), Box<dyn std::error::Error>> {
         "{} frames on {}, t = {:.3} s, {} fracture events",
         report.frames, report.adapter, report.time, report.events
     );
+    if report.wall > 0.0 {
+        println!(
+            "{:.3} s simulated in {:.3} s ({:.2}x real time, {:.0} fps); per frame: simulation {:.1} ms, drawing {:.1} ms",
+            report.simulated,
+            report.wall,
+            report.simulated / report.wall,
+            report.frames as f64 / report.wall,
+            report.sim_ms,
+            report.draw_ms
+        );
+    }
     if let Some((p, from_window)) = &report.screenshot {
         println!(
             "screenshot: {} ({})",

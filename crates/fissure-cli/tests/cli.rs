@@ -119,6 +119,8 @@ fn viewer_under_xvfb_shows_the_ball_and_the_room() {
     assert!(o.status.success(), "{stdout}\n{stderr}");
     assert!(stdout.contains("read from the window's surface"), "{stdout}");
     assert!(stdout.contains("1 fracture events"), "the scripted puncture did not break the ball: {stdout}");
+    // A script replays with fixed frames: 30 of 1/60 s.
+    assert!(stdout.contains("0.500 s simulated in"), "{stdout}");
     let image = load_png(&shot).unwrap();
     assert_eq!((image.width, image.height), (960, 540));
     let (ball, room) = (image.body_coverage(0), image.room_coverage());

@@ -21,7 +21,7 @@ use std::cell::RefCell;
 use std::path::Path;
 use std::rc::Rc;
 
-use fissure::gpu::render::{Camera, Offscreen, Positions, Renderer, View, targets};
+use fissure::gpu::render::{Camera, Offscreen, Positions, Renderer, SAMPLES, View, targets};
 use fissure::gpu::{GpuConfig, GpuSolver, wgpu};
 use fissure::scene::{Override, Scene};
 use fissure::{Model, World};
@@ -244,7 +244,7 @@ impl Sim {
                     color_space: wgpu::SurfaceColorSpace::Auto,
                 };
                 surface.configure(&device, &config);
-                let (msaa, depth) = targets(&device, view_format, width, height);
+                let (msaa, depth) = targets(&device, view_format, width, height, SAMPLES);
                 (Present::Canvas { surface, config, view_format, msaa, depth }, view_format)
             }
             (None, Some(ctx)) => {

@@ -12,6 +12,8 @@ pub struct Offscreen {
     pub(super) resolve_view: wgpu::TextureView,
     pub(super) depth: wgpu::TextureView,
     pub(super) readback: Readback,
+    /// Samples per pixel of `color` and `depth` (remade to match the renderer's when they differ).
+    pub(super) samples: u32,
 }
 
 impl Offscreen {
@@ -21,7 +23,7 @@ impl Offscreen {
     /// A `width × height` target.
     pub fn new(device: &wgpu::Device, width: u32, height: u32) -> Offscreen {
         let (width, height) = (width.max(1), height.max(1));
-        let (color, depth) = targets(device, Self::FORMAT, width, height);
+        let (color, depth) = targets(device, Self::FORMAT, width, height, SAMPLES);
         let resolve = device.create_texture(&wgpu::TextureDescriptor {
             label: Some("offscreen"),
             size: wgpu::Extent3d { width, height, depth_or_array_layers: 1 },
@@ -34,7 +36,7 @@ impl Offscreen {
         });
         let readback = Readback::new(device, width, height);
         let resolve_view = resolve.create_view(&Default::default());
-        Offscreen { width, height, color, resolve, resolve_view, depth, readback }
+        Offscreen { width, height, color, resolve, resolve_view, depth, readback, samples: SAMPLES }
     }
 
     /// Size in pixels.
@@ -65,6 +67,10 @@ impl Offscreen {
         view: &View,
         positions: Positions<'_>,
     ) -> Result<Image, GpuError> {
+        if renderer.samples() != self.samples {
+            self.samples = renderer.samples();
+            (self.color, self.depth) = targets(device, Self::FORMAT, self.width, self.height, self.samples);
+        }
         let mut enc = device.create_command_encoder(&Default::default());
         renderer.encode(&mut enc, &self.color, &self.resolve_view, &self.depth, self.size(), camera, view, positions);
         self.readback.encode_copy(&mut enc, &self.resolve);
@@ -142,13 +148,15 @@ impl Readback {
     }
 }
 
-/// A multisampled colour texture of `format` and a matching depth texture, `width × height` (for a window's
-/// surface: resolve into the surface texture).
+/// A colour texture of `format` with `samples` per pixel and a matching depth texture, `width × height` (for a
+/// window's surface: resolve into the surface texture; with one sample the colour texture is not drawn into,
+/// see [`crate::render::Renderer::encode`]).
 pub fn targets(
     device: &wgpu::Device,
     format: wgpu::TextureFormat,
     width: u32,
     height: u32,
+    samples: u32,
 ) -> (wgpu::TextureView, wgpu::TextureView) {
     let make = |label, format| {
         device
@@ -156,7 +164,7 @@ pub fn targets(
                 label: Some(label),
                 size: wgpu::Extent3d { width: width.max(1), height: height.max(1), depth_or_array_layers: 1 },
                 mip_level_count: 1,
-                sample_count: SAMPLES,
+                sample_count: samples,
                 dimension: wgpu::TextureDimension::D2,
                 format,
                 usage: wgpu::TextureUsages::RENDER_ATTACHMENT,
