@@ -60,6 +60,10 @@ pub trait Real:
     fn ulp(self) -> Self;
     /// Positive infinity.
     fn infinity() -> Self;
+    /// The components of `v`, `x y z x y z …` (a [`Real::V`] is three scalars in that order, `#[repr(C)]`).
+    fn flat(v: &[Self::V]) -> &[Self];
+    /// [`Real::flat`], mutable.
+    fn flat_mut(v: &mut [Self::V]) -> &mut [Self];
 }
 
 /// A 3-vector over a [`Real`] scalar; implemented by [`Vec3`] and [`DVec3`].
@@ -155,6 +159,19 @@ macro_rules! impl_real {
             }
             fn infinity() -> Self {
                 <$t>::INFINITY
+            }
+            #[inline(always)]
+            fn flat(v: &[$v]) -> &[$t] {
+                const { assert!(std::mem::size_of::<$v>() == 3 * std::mem::size_of::<$t>()) };
+                // SAFETY: glam's vectors are `#[repr(C)]` structs of three scalars (size checked above): a slice of
+                // n of them is 3n scalars, with the scalar's alignment.
+                unsafe { std::slice::from_raw_parts(v.as_ptr().cast::<$t>(), 3 * v.len()) }
+            }
+            #[inline(always)]
+            fn flat_mut(v: &mut [$v]) -> &mut [$t] {
+                const { assert!(std::mem::size_of::<$v>() == 3 * std::mem::size_of::<$t>()) };
+                // SAFETY: as in `flat`; the borrow is the caller's unique one.
+                unsafe { std::slice::from_raw_parts_mut(v.as_mut_ptr().cast::<$t>(), 3 * v.len()) }
             }
         }
 

@@ -137,7 +137,7 @@ impl<R: Real> ForceScratch<R> {
             }
         };
         #[cfg(feature = "parallel")]
-        let done = m.tri_count() >= par::PAR_MIN && {
+        let done = par::pooled(m.tri_count()) && {
             use rayon::prelude::*;
             self.tri_cross
                 .par_chunks_mut(par::CHUNK)

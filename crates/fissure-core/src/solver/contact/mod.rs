@@ -31,7 +31,7 @@ const TASK: usize = 512;
 /// item on its own).
 fn extend_chunks<T: Sync, U: Send>(out: &mut Vec<U>, items: &[T], min: usize, f: impl Fn(&[T], &mut Vec<U>) + Sync) {
     #[cfg(feature = "parallel")]
-    if items.len() >= min {
+    if items.len() >= min && rayon::current_num_threads() > 1 {
         let parts: Vec<Vec<U>> = items
             .par_chunks(TASK)
             .map(|c| {
@@ -275,7 +275,7 @@ impl<R: Real> CpuSolver<R> {
         };
         // (Maxima and boxes: the same in any grouping.)
         #[cfg(feature = "parallel")]
-        let mv = if el.particles.len() < crate::par::PAR_MIN {
+        let mv = if !crate::par::pooled(el.particles.len()) {
             moves(&el.particles)
         } else {
             el.particles.par_chunks(TASK).map(moves).reduce(|| Moves::new(boxes), Moves::merge)
