@@ -475,6 +475,12 @@ impl<R: Real> CpuSolver<R> {
 
 impl<R: Real> Solver<R> for CpuSolver<R> {
     fn step(&mut self, model: &Model<R>, state: &mut State<R>, dt: f64) -> Result<(), StepError> {
+        // A model whose passes go to rayon's pool steps inside the pool (one hand-over per step instead of one per
+        // pass: a thread outside the pool waits for each pass it hands over, with a wake-up each way).
+        #[cfg(feature = "parallel")]
+        if rayon::current_thread_index().is_none() && par::pooled(model.particle_count().max(model.spring_count())) {
+            return rayon::scope(|_| self.step_inner(model, state, dt));
+        }
         self.step_inner(model, state, dt)
     }
 
