@@ -322,7 +322,7 @@ fn update_avx2<R: Real>(
 /// Symplectic Euler's update of particles `p0 .. p0 + fs.len()` from their spring forces `fs` (no other force but
 /// gravity) into `qs`, `vs`: `v = v0 + (g m + f) w dt`, `x = x0 + v dt`, a pinned particle (`w = 0`) kept as it
 /// was. The per-particle update's operations in its order (the same bits), over the components with selects
-/// instead of branches (measured on the 128² cloth, 2026-11-24: the update 80 → ~45 µs per step on one thread).
+/// instead of branches.
 /// True if a moving particle's state is not finite.
 #[allow(clippy::too_many_arguments)]
 #[inline(always)]
@@ -336,22 +336,37 @@ fn update<R: Real>(
     vs: &mut [R::V],
     dt: R,
 ) -> bool {
+    const SPAN: usize = 64;
     let n = fs.len();
     let (x0, v0, f) = (R::flat(&q[p0..p0 + n]), R::flat(&qd[p0..p0 + n]), R::flat(fs));
     let (x1, v1) = (R::flat_mut(&mut qs[..n]), R::flat_mut(&mut vs[..n]));
     let (w, mass) = (&m.particle_inv_mass[p0..p0 + n], &m.particle_mass[p0..p0 + n]);
     let g = m.gravity.to_array();
     let mut bad = false;
-    for k in 0..n {
-        let (s, keep) = (w[k] * dt, w[k] == R::ZERO);
-        for c in 0..3 {
-            let j = 3 * k + c;
-            let v = v0[j] + (g[c] * mass[k] + f[j]) * s;
-            let x = x0[j] + v * dt;
-            v1[j] = if keep { v0[j] } else { v };
-            x1[j] = if keep { x0[j] } else { x };
-            bad |= !keep & !(v.is_finite() & x.is_finite());
+    // Per span of particles, their factors spread over their components (`g m` and `w dt` per component), then
+    // one loop over the components: flat, so the compiler vectorises it.
+    let (mut gm, mut s, mut keep) = ([R::ZERO; 3 * SPAN], [R::ZERO; 3 * SPAN], [false; 3 * SPAN]);
+    let mut k0 = 0;
+    while k0 < n {
+        let len = (n - k0).min(SPAN);
+        for k in 0..len {
+            let (mk, sk, kk) = (mass[k0 + k], w[k0 + k] * dt, w[k0 + k] == R::ZERO);
+            for c in 0..3 {
+                gm[3 * k + c] = g[c] * mk;
+                s[3 * k + c] = sk;
+                keep[3 * k + c] = kk;
+            }
         }
+        let r = 3 * k0..3 * (k0 + len);
+        let (x0, v0, f, x1, v1) = (&x0[r.clone()], &v0[r.clone()], &f[r.clone()], &mut x1[r.clone()], &mut v1[r]);
+        for j in 0..3 * len {
+            let v = v0[j] + (gm[j] + f[j]) * s[j];
+            let x = x0[j] + v * dt;
+            v1[j] = if keep[j] { v0[j] } else { v };
+            x1[j] = if keep[j] { x0[j] } else { x };
+            bad |= !keep[j] & !(v.is_finite() & x.is_finite());
+        }
+        k0 += len;
     }
     bad
 }

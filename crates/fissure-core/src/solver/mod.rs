@@ -475,13 +475,19 @@ impl<R: Real> CpuSolver<R> {
 
 impl<R: Real> Solver<R> for CpuSolver<R> {
     fn step(&mut self, model: &Model<R>, state: &mut State<R>, dt: f64) -> Result<(), StepError> {
-        // A model whose passes go to rayon's pool steps inside the pool (one hand-over per step instead of one per
-        // pass: a thread outside the pool waits for each pass it hands over, with a wake-up each way).
+        self.advance(model, state, dt, 1)
+    }
+
+    fn advance(&mut self, model: &Model<R>, state: &mut State<R>, dt: f64, steps: usize) -> Result<(), StepError> {
+        // A model whose passes go to rayon's pool steps inside the pool: one hand-over per batch instead of one per
+        // pass (a thread outside the pool waits for each pass it hands over, with a wake-up each way; measured
+        // on the 128² cloth, 2 threads, 2026-11-24: 177–202 µs per step handing over each pass, 152–161 each
+        // step).
         #[cfg(feature = "parallel")]
         if rayon::current_thread_index().is_none() && par::pooled(model.particle_count().max(model.spring_count())) {
-            return rayon::scope(|_| self.step_inner(model, state, dt));
+            return rayon::scope(|_| (0..steps).try_for_each(|_| self.step_inner(model, state, dt)));
         }
-        self.step_inner(model, state, dt)
+        (0..steps).try_for_each(|_| self.step_inner(model, state, dt))
     }
 
     fn notify_model_changed(&mut self, _model: &Model<R>, delta: &TopologyDelta) {
