@@ -23,6 +23,8 @@ pub(crate) struct ForceScratch<R: Real> {
     pub particle_spring: Vec<R::V>,
     /// Whether the run kernel is used (`particle_spring` holds the sums) or the gather (`spring_f`).
     pub runs: bool,
+    /// The runs each block walks (run kernel).
+    pub run_blocks: spring::RunBlocks,
     /// `(x1 - x0) × (x2 - x0)` of each triangle \[m^2\].
     pub tri_cross: Vec<R::V>,
     /// Force on each corner of each triangle (pressure + wind share) \[N\], written only with wind: without it a
@@ -63,6 +65,7 @@ impl<R: Real> ForceScratch<R> {
     /// (the implicit solver reuses it for its matrix products).
     pub fn resize(&mut self, m: &Model<R>, spring_buffer: bool) {
         self.runs = m.springs_are_runs();
+        self.run_blocks = if self.runs { spring::RunBlocks::of_model(m) } else { spring::RunBlocks::default() };
         let ns = if spring_buffer || !self.runs { m.spring_count() } else { 0 };
         self.spring_f.resize(ns, R::V::ZERO);
         self.particle_spring.resize(if self.runs { m.particle_count() } else { 0 }, R::V::ZERO);

@@ -122,9 +122,9 @@ impl<R: Real> CpuSolver<R> {
         let projected = m.damping_model == DampingModel::Projected;
         par::chunks3(&mut self.f_block, &mut self.q_next, &mut self.qd_next, |p0, fs, qs, vs| {
             if projected {
-                run_block_dispatch::<R, true>(m, q, qd, p0, fs);
+                run_block_dispatch::<R, true>(m, f.run_blocks.of(p0), q, qd, p0, fs);
             } else {
-                run_block_dispatch::<R, false>(m, q, qd, p0, fs);
+                run_block_dispatch::<R, false>(m, f.run_blocks.of(p0), q, qd, p0, fs);
             }
             if !surface {
                 // No triangle terms: the update over the components, without branches.
