@@ -36,14 +36,20 @@ pub(crate) fn pooled(n: usize) -> bool {
 /// Runs `f(start, chunk)` over `data` in fixed chunks, in parallel when there is more than one chunk.
 #[inline]
 pub(crate) fn chunks<T: Send>(data: &mut [T], f: impl Fn(usize, &mut [T]) + Sync + Send) {
+    chunks_of(CHUNK, data, f)
+}
+
+/// [`chunks`] in chunks of `size` elements (the spring-run kernel's blocks, which grow with a grid's rows).
+#[inline]
+pub(crate) fn chunks_of<T: Send>(size: usize, data: &mut [T], f: impl Fn(usize, &mut [T]) + Sync + Send) {
     #[cfg(feature = "parallel")]
     if pooled(data.len()) {
-        data.par_chunks_mut(CHUNK).enumerate().for_each(|(c, s)| f(c * CHUNK, s));
+        data.par_chunks_mut(size).enumerate().for_each(|(c, s)| f(c * size, s));
         return;
     }
     // The same fixed chunks as the parallel path: kernels whose order depends on the chunking (the spring-run
     // kernel) give the same bits either way.
-    data.chunks_mut(CHUNK).enumerate().for_each(|(c, s)| f(c * CHUNK, s));
+    data.chunks_mut(size).enumerate().for_each(|(c, s)| f(c * size, s));
 }
 
 /// Like [`chunks`] over two slices of equal length walked together.
@@ -112,18 +118,30 @@ pub(crate) fn chunks3<A: Send, B: Send, C: Send>(
     c: &mut [C],
     f: impl Fn(usize, &mut [A], &mut [B], &mut [C]) + Sync + Send,
 ) {
+    chunks3_of(CHUNK, a, b, c, f)
+}
+
+/// [`chunks3`] in chunks of `size` elements (see [`chunks_of`]).
+#[inline]
+pub(crate) fn chunks3_of<A: Send, B: Send, C: Send>(
+    size: usize,
+    a: &mut [A],
+    b: &mut [B],
+    c: &mut [C],
+    f: impl Fn(usize, &mut [A], &mut [B], &mut [C]) + Sync + Send,
+) {
     #[cfg(feature = "parallel")]
     if pooled(a.len()) {
-        a.par_chunks_mut(CHUNK)
-            .zip(b.par_chunks_mut(CHUNK))
-            .zip(c.par_chunks_mut(CHUNK))
+        a.par_chunks_mut(size)
+            .zip(b.par_chunks_mut(size))
+            .zip(c.par_chunks_mut(size))
             .enumerate()
-            .for_each(|(i, ((x, y), z))| f(i * CHUNK, x, y, z));
+            .for_each(|(i, ((x, y), z))| f(i * size, x, y, z));
         return;
     }
-    a.chunks_mut(CHUNK)
-        .zip(b.chunks_mut(CHUNK))
-        .zip(c.chunks_mut(CHUNK))
+    a.chunks_mut(size)
+        .zip(b.chunks_mut(size))
+        .zip(c.chunks_mut(size))
         .enumerate()
-        .for_each(|(i, ((x, y), z))| f(i * CHUNK, x, y, z));
+        .for_each(|(i, ((x, y), z))| f(i * size, x, y, z));
 }

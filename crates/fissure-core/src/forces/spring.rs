@@ -259,8 +259,8 @@ impl<R: Real> SpanScratch<R> {
 /// Forces of a span of springs with contiguous ends. The positions arrive as 3-vectors (array of structs), which
 /// no compiler vectorises well; they are transposed into per-component arrays, the maths runs on those (plain
 /// loops over `[R; SPAN]` that LLVM turns into packed code, square roots and divisions included), and the
-/// result is transposed back. Lanes past `out.len()` hold stale values from an earlier span: computed, never
-/// used. The maths is [`force_components`], lane by lane.
+/// result is transposed back. Lanes past `out.len()` up to a multiple of [`LANES`] hold stale values from an
+/// earlier span: computed, never used. The maths is [`force_components`], lane by lane.
 #[allow(clippy::too_many_arguments)]
 #[inline(always)]
 fn span_forces<R: Real, const PROJECTED: bool>(
@@ -285,7 +285,8 @@ fn span_forces<R: Real, const PROJECTED: bool>(
     }
     let ([dx, dy, dz], [wx, wy, wz], [r, s, d]) = (&t.d, &t.w, &t.p);
     let [fx, fy, fz] = &mut t.f;
-    for k in 0..SPAN {
+    // Whole vectors of lanes, not the whole span: a 32² cloth's rows are spans of 31 springs.
+    for k in 0..n.next_multiple_of(LANES).min(SPAN) {
         [fx[k], fy[k], fz[k]] =
             force_components::<R, PROJECTED>([dx[k], dy[k], dz[k]], [wx[k], wy[k], wz[k]], r[k], s[k], d[k]);
     }
@@ -293,6 +294,9 @@ fn span_forces<R: Real, const PROJECTED: bool>(
         out[k] = R::V::new(fx[k], fy[k], fz[k]);
     }
 }
+
+/// Lanes of the widest vectors the span loops use (8 `f32` in AVX2).
+const LANES: usize = 8;
 
 /// Spring forces summed per particle, for models made of [`crate::model::SpringRun`]s. Each fixed block of
 /// particles walks every run, computes the springs with an end in the block on contiguous slices (up to [`SPAN`]
@@ -306,35 +310,45 @@ fn run_pass<R: Real, const PROJECTED: bool>(
     qd: &[R::V],
     out: &mut [R::V],
 ) {
-    par::chunks(out, |p0, block| run_block_dispatch::<R, PROJECTED>(m, blocks.of(p0), q, qd, p0, block));
+    par::chunks_of(blocks.len(), out, |p0, block| {
+        run_block_dispatch::<R, PROJECTED>(m, blocks.of(p0), q, qd, p0, block)
+    });
 }
 
-/// The runs each block of [`par::CHUNK`] particles walks: those with a particle in it, in run order (the order
-/// of additions, so the same bits as walking every run). Without it each block walked every run: a 1024² cloth
-/// has ~3,000 row runs and 512 blocks, and that walk took a fifth of the run kernel's time (measured
+/// The run kernel's blocks: their length, and the runs each walks (those with a particle in it, in run order: the
+/// order of additions, so the same bits as walking every run). Without the lists each block walked every run: a
+/// 1024² cloth has ~3,000 row runs and 512 blocks, and that walk took a fifth of the kernel's time (measured
 /// 2026-11-24, one thread).
+///
+/// A block is [`par::CHUNK`] particles, or more on a wide grid: at least 8 times the largest offset between a
+/// run's two ends (8 rows of a cloth with bending springs two rows apart). A spring with its ends in two blocks is
+/// computed by both, and with blocks of two rows (a 1024² cloth in chunks of 2,048) that was 40% of its springs
+/// twice.
 #[derive(Clone, Debug, Default)]
 pub(crate) struct RunBlocks {
+    len: usize,
     /// `start[b]..start[b + 1]`: block `b`'s slice of `runs`.
     start: Vec<u32>,
     runs: Vec<u32>,
 }
 
 impl RunBlocks {
-    /// The lists of `m`'s runs.
+    /// The blocks of `m`'s runs.
     pub fn of_model<R: Real>(m: &Model<R>) -> Self {
-        let blocks = m.particle_count().div_ceil(par::CHUNK);
+        let offset = m.spring_runs.iter().map(|r| r.i.abs_diff(r.j) as usize).max().unwrap_or(0);
+        let len = par::CHUNK.max((8 * offset).next_multiple_of(par::CHUNK));
+        let blocks = m.particle_count().div_ceil(len);
         let mut lists = vec![Vec::new(); blocks];
         for (k, r) in m.spring_runs.iter().enumerate() {
             if r.len == 0 {
                 continue;
             }
             let (lo, hi) = (r.i.min(r.j) as usize, (r.i.max(r.j) + r.len) as usize);
-            for list in &mut lists[lo / par::CHUNK..(hi - 1) / par::CHUNK + 1] {
+            for list in &mut lists[lo / len..(hi - 1) / len + 1] {
                 list.push(k as u32);
             }
         }
-        let mut out = RunBlocks { start: vec![0], runs: Vec::new() };
+        let mut out = RunBlocks { len, start: vec![0], runs: Vec::new() };
         for l in lists {
             out.runs.extend(l);
             out.start.push(out.runs.len() as u32);
@@ -342,11 +356,15 @@ impl RunBlocks {
         out
     }
 
-    /// The runs of the block starting at particle `p0` (a multiple of [`par::CHUNK`]: the run kernel's blocks are
-    /// the fixed chunks of `par`).
+    /// Particles per block.
+    pub fn len(&self) -> usize {
+        self.len
+    }
+
+    /// The runs of the block starting at particle `p0` (a multiple of [`RunBlocks::len`]).
     pub fn of(&self, p0: usize) -> &[u32] {
-        debug_assert_eq!(p0 % par::CHUNK, 0);
-        let b = p0 / par::CHUNK;
+        debug_assert_eq!(p0 % self.len, 0);
+        let b = p0 / self.len;
         &self.runs[self.start[b] as usize..self.start[b + 1] as usize]
     }
 }

@@ -120,46 +120,52 @@ impl<R: Real> CpuSolver<R> {
         let (q, qd) = (&s.particle_q, &s.particle_qd);
         let f = &self.f;
         let projected = m.damping_model == DampingModel::Projected;
-        par::chunks3(&mut self.f_block, &mut self.q_next, &mut self.qd_next, |p0, fs, qs, vs| {
-            if projected {
-                run_block_dispatch::<R, true>(m, f.run_blocks.of(p0), q, qd, p0, fs);
-            } else {
-                run_block_dispatch::<R, false>(m, f.run_blocks.of(p0), q, qd, p0, fs);
-            }
-            if !surface {
-                // No triangle terms: the update over the components, without branches.
-                if update_dispatch(m, q, qd, p0, fs, qs, vs, dt) {
+        par::chunks3_of(
+            f.run_blocks.len(),
+            &mut self.f_block,
+            &mut self.q_next,
+            &mut self.qd_next,
+            |p0, fs, qs, vs| {
+                if projected {
+                    run_block_dispatch::<R, true>(m, f.run_blocks.of(p0), q, qd, p0, fs);
+                } else {
+                    run_block_dispatch::<R, false>(m, f.run_blocks.of(p0), q, qd, p0, fs);
+                }
+                if !surface {
+                    // No triangle terms: the update over the components, without branches.
+                    if update_dispatch(m, q, qd, p0, fs, qs, vs, dt) {
+                        blown.store(true, Ordering::Relaxed);
+                    }
+                    return;
+                }
+                let mut bad = false;
+                for k in 0..fs.len() {
+                    let i = p0 + k;
+                    let w = m.particle_inv_mass[i];
+                    if w == R::ZERO {
+                        qs[k] = q[i];
+                        vs[k] = qd[i];
+                        continue;
+                    }
+                    let mut force = m.gravity * m.particle_mass[i] + fs[k];
+                    if surface {
+                        for &tt in m.particle_tris.row(i) {
+                            force += corner(m, f, tt as usize);
+                        }
+                        if !f.cap_f.is_empty() {
+                            force += f.cap_f[i];
+                        }
+                    }
+                    let v = qd[i] + force * (w * dt);
+                    vs[k] = v;
+                    qs[k] = q[i] + v * dt;
+                    bad |= !(v.is_finite() && qs[k].is_finite());
+                }
+                if bad {
                     blown.store(true, Ordering::Relaxed);
                 }
-                return;
-            }
-            let mut bad = false;
-            for k in 0..fs.len() {
-                let i = p0 + k;
-                let w = m.particle_inv_mass[i];
-                if w == R::ZERO {
-                    qs[k] = q[i];
-                    vs[k] = qd[i];
-                    continue;
-                }
-                let mut force = m.gravity * m.particle_mass[i] + fs[k];
-                if surface {
-                    for &tt in m.particle_tris.row(i) {
-                        force += corner(m, f, tt as usize);
-                    }
-                    if !f.cap_f.is_empty() {
-                        force += f.cap_f[i];
-                    }
-                }
-                let v = qd[i] + force * (w * dt);
-                vs[k] = v;
-                qs[k] = q[i] + v * dt;
-                bad |= !(v.is_finite() && qs[k].is_finite());
-            }
-            if bad {
-                blown.store(true, Ordering::Relaxed);
-            }
-        });
+            },
+        );
         std::mem::swap(&mut s.particle_q, &mut self.q_next);
         std::mem::swap(&mut s.particle_qd, &mut self.qd_next);
         self.timers.add(Stage::Springs, t);
