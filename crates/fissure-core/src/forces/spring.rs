@@ -275,18 +275,27 @@ fn span_forces<R: Real, const PROJECTED: bool>(
     out: &mut [R::V],
 ) {
     let n = out.len();
-    let (qi, qj, vi, vj, rest, ks, kd) = (&qi[..n], &qj[..n], &vi[..n], &vj[..n], &rest[..n], &ks[..n], &kd[..n]);
+    let (qi, qj, vi, vj) = (&qi[..n], &qj[..n], &vi[..n], &vj[..n]);
     for k in 0..n {
         let [a, b, c] = (qj[k] - qi[k]).to_array();
         let [e, f, g] = (vj[k] - vi[k]).to_array();
         (t.d[0][k], t.d[1][k], t.d[2][k]) = (a, b, c);
         (t.w[0][k], t.w[1][k], t.w[2][k]) = (e, f, g);
-        (t.p[0][k], t.p[1][k], t.p[2][k]) = (rest[k], ks[k], kd[k]);
     }
-    let ([dx, dy, dz], [wx, wy, wz], [r, s, d]) = (&t.d, &t.w, &t.p);
+    // Whole vectors of lanes, not the whole span: a 32² cloth's rows are spans of 31 springs. The parameters are
+    // read in place where the arrays extend that far (they are contiguous along a run), else copied.
+    let lanes = n.next_multiple_of(LANES).min(SPAN);
+    let (r, s, d) = if rest.len() >= lanes {
+        (&rest[..lanes], &ks[..lanes], &kd[..lanes])
+    } else {
+        t.p[0][..n].copy_from_slice(&rest[..n]);
+        t.p[1][..n].copy_from_slice(&ks[..n]);
+        t.p[2][..n].copy_from_slice(&kd[..n]);
+        (&t.p[0][..lanes], &t.p[1][..lanes], &t.p[2][..lanes])
+    };
+    let ([dx, dy, dz], [wx, wy, wz]) = (&t.d, &t.w);
     let [fx, fy, fz] = &mut t.f;
-    // Whole vectors of lanes, not the whole span: a 32² cloth's rows are spans of 31 springs.
-    for k in 0..n.next_multiple_of(LANES).min(SPAN) {
+    for k in 0..lanes {
         [fx[k], fy[k], fz[k]] =
             force_components::<R, PROJECTED>([dx[k], dy[k], dz[k]], [wx[k], wy[k], wz[k]], r[k], s[k], d[k]);
     }
@@ -438,7 +447,7 @@ fn run_block<R: Real, const PROJECTED: bool>(
                 let n = k1 - k0;
                 let (qi, qj) = (&q[i0 + k0..i0 + k1], &q[j0 + k0..j0 + k1]);
                 let (vi, vj) = (&qd[i0 + k0..i0 + k1], &qd[j0 + k0..j0 + k1]);
-                let (rs, kss, kds) = (&rest[s0 + k0..s0 + k1], &ks[s0 + k0..s0 + k1], &kd[s0 + k0..s0 + k1]);
+                let (rs, kss, kds) = (&rest[s0 + k0..], &ks[s0 + k0..], &kd[s0 + k0..]);
                 span_forces::<R, PROJECTED>(&mut scratch, qi, qj, vi, vj, rs, kss, kds, &mut buf[..n]);
                 // End 0 of springs k in [max(k0, a0), min(k1, a1)) lies in the block: add.
                 let (c0, c1) = (k0.max(a0), k1.min(a1));
