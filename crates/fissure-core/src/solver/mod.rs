@@ -202,6 +202,12 @@ pub struct CgStats {
 }
 
 /// The multi-threaded CPU solver (rayon), generic over precision.
+///
+/// Threads: a pass over at least `par::PAR_MIN` (16,384) elements goes to rayon's pool, in fixed chunks (the same
+/// bits on any number of threads); smaller passes, and every pass inside a pool of one thread, run on the calling
+/// thread. A model with such passes steps inside the pool: [`Solver::advance`] hands a whole batch of steps over
+/// once (what `World::advance` uses), [`Solver::step`] one step; run the stepping loop inside your own pool
+/// (`ThreadPool::install`) and nothing is handed over at all.
 #[derive(Clone, Debug, Default)]
 pub struct CpuSolver<R: Real = f32> {
     /// Settings.
