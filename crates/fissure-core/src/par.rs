@@ -30,7 +30,15 @@ pub(crate) const PAR_MIN: usize = 8 * CHUNK;
 #[cfg(feature = "parallel")]
 #[inline]
 pub(crate) fn pooled(n: usize) -> bool {
-    n >= PAR_MIN && rayon::current_num_threads() > 1
+    n >= PAR_MIN && pool_has_threads()
+}
+
+/// Whether the current rayon pool has more than one thread (see [`pooled`]; passes with their own size
+/// threshold ask this too).
+#[cfg(feature = "parallel")]
+#[inline]
+pub(crate) fn pool_has_threads() -> bool {
+    rayon::current_num_threads() > 1
 }
 
 /// Runs `f(start, chunk)` over `data` in fixed chunks, in parallel when there is more than one chunk.

@@ -308,10 +308,10 @@ fn span_forces<R: Real, const PROJECTED: bool>(
 const LANES: usize = 8;
 
 /// Spring forces summed per particle, for models made of [`crate::model::SpringRun`]s. Each fixed block of
-/// particles walks every run, computes the springs with an end in the block on contiguous slices (up to [`SPAN`]
-/// at a time, vectorised), and adds them to the block's particles: `+f` on end 0, `-f` on end 1. A spring
-/// with its ends in two blocks is computed by both. The order of additions per particle is fixed by the run order
-/// and the fixed block size, never by the thread count.
+/// particles walks its runs ([`RunBlocks`]), computes the springs with an end in the block on contiguous slices
+/// (up to [`SPAN`] at a time, vectorised), and adds them to the block's particles: `+f` on end 0, `-f` on end 1.
+/// A spring with its ends in two blocks is computed by both. The order of additions per particle is fixed by the
+/// run order and the block size (a function of the model), never by the thread count.
 fn run_pass<R: Real, const PROJECTED: bool>(
     m: &Model<R>,
     blocks: &RunBlocks,

@@ -147,14 +147,13 @@ impl<R: Real> CpuSolver<R> {
                         vs[k] = qd[i];
                         continue;
                     }
+                    // With triangle terms (the case without them returned above).
                     let mut force = m.gravity * m.particle_mass[i] + fs[k];
-                    if surface {
-                        for &tt in m.particle_tris.row(i) {
-                            force += corner(m, f, tt as usize);
-                        }
-                        if !f.cap_f.is_empty() {
-                            force += f.cap_f[i];
-                        }
+                    for &tt in m.particle_tris.row(i) {
+                        force += corner(m, f, tt as usize);
+                    }
+                    if !f.cap_f.is_empty() {
+                        force += f.cap_f[i];
                     }
                     let v = qd[i] + force * (w * dt);
                     vs[k] = v;

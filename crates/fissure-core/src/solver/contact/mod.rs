@@ -31,7 +31,7 @@ const TASK: usize = 512;
 /// item on its own).
 fn extend_chunks<T: Sync, U: Send>(out: &mut Vec<U>, items: &[T], min: usize, f: impl Fn(&[T], &mut Vec<U>) + Sync) {
     #[cfg(feature = "parallel")]
-    if items.len() >= min && rayon::current_num_threads() > 1 {
+    if items.len() >= min && crate::par::pool_has_threads() {
         let parts: Vec<Vec<U>> = items
             .par_chunks(TASK)
             .map(|c| {
