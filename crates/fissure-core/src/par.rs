@@ -92,6 +92,62 @@ pub(crate) fn sum<R: Real>(n: usize, partials: &mut Vec<R>, f: impl Fn(usize) ->
     partials.iter().fold(R::ZERO, |a, &b| a + b)
 }
 
+/// Like [`chunks`], each chunk also returning two partial sums, which are summed in chunk order (`partials`:
+/// resized, reused): each total has the bits [`sum`] gives for the same terms, on any thread count, when `f`
+/// folds its chunk's terms in element order from zero. Fuses a pass and the reductions over its results.
+#[inline]
+pub(crate) fn chunks_sums<T: Send, R: Real>(
+    data: &mut [T],
+    partials: &mut Vec<[R; 2]>,
+    f: impl Fn(usize, &mut [T]) -> [R; 2] + Sync + Send,
+) -> [R; 2] {
+    partials.resize(data.len().div_ceil(CHUNK), [R::ZERO; 2]);
+    #[cfg(feature = "parallel")]
+    if pooled(data.len()) {
+        data.par_chunks_mut(CHUNK)
+            .zip(partials.par_iter_mut())
+            .enumerate()
+            .for_each(|(c, (x, p))| *p = f(c * CHUNK, x));
+        return total2(partials);
+    }
+    data.chunks_mut(CHUNK).zip(partials.iter_mut()).enumerate().for_each(|(c, (x, p))| *p = f(c * CHUNK, x));
+    total2(partials)
+}
+
+/// [`chunks_sums`] over three slices of equal length walked together.
+#[inline]
+#[allow(clippy::type_complexity)]
+pub(crate) fn chunks3_sums<A: Send, B: Send, C: Send, R: Real>(
+    a: &mut [A],
+    b: &mut [B],
+    c: &mut [C],
+    partials: &mut Vec<[R; 2]>,
+    f: impl Fn(usize, &mut [A], &mut [B], &mut [C]) -> [R; 2] + Sync + Send,
+) -> [R; 2] {
+    debug_assert!(a.len() == b.len() && a.len() == c.len());
+    partials.resize(a.len().div_ceil(CHUNK), [R::ZERO; 2]);
+    #[cfg(feature = "parallel")]
+    if pooled(a.len()) {
+        a.par_chunks_mut(CHUNK)
+            .zip(b.par_chunks_mut(CHUNK))
+            .zip(c.par_chunks_mut(CHUNK).zip(partials.par_iter_mut()))
+            .enumerate()
+            .for_each(|(i, ((x, y), (z, p)))| *p = f(i * CHUNK, x, y, z));
+        return total2(partials);
+    }
+    a.chunks_mut(CHUNK)
+        .zip(b.chunks_mut(CHUNK))
+        .zip(c.chunks_mut(CHUNK).zip(partials.iter_mut()))
+        .enumerate()
+        .for_each(|(i, ((x, y), (z, p)))| *p = f(i * CHUNK, x, y, z));
+    total2(partials)
+}
+
+/// The chunk sums of [`chunks_sums`], in chunk order.
+fn total2<R: Real>(partials: &[[R; 2]]) -> [R; 2] {
+    partials.iter().fold([R::ZERO; 2], |[a, b], &[x, y]| [a + x, b + y])
+}
+
 /// Like [`chunks`] over four slices of equal length walked together.
 #[inline]
 #[allow(clippy::type_complexity)]

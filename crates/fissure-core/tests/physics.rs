@@ -327,3 +327,57 @@ fn undamped_symplectic_integrators_keep_energy_bounded_for_1e5_steps() {
         assert!(late_max < 1.5 * early_max, "{}: energy drifts ({early_max:e} -> {late_max:e})", integrator.name());
     }
 }
+
+/// Implicit Euler's conjugate gradients start from the last step's `Δv` when a step continues the solver's last
+/// one. The start changes the path, not the answer: each warm step lands within the CG tolerance of a cold solve
+/// of the same step (f64, tolerance 1e-9 relative to `|b|`; the positions then agree to ~1e-9 of a step's motion,
+/// bounded here by 1e-9 m), in fewer iterations over the run. A state the solver did not just step (another
+/// time) starts cold: the same bits as a fresh solver.
+#[test]
+fn implicit_warm_start_changes_iterations_not_the_solution() {
+    let n = 16;
+    let opts = ClothOptions {
+        mass: Mass::PerParticle(1e-3),
+        stiffness: Stiffness::PerSpring(1000.0),
+        shear: Some(Stiffness::PerSpring(1000.0)),
+        bending: Some(Stiffness::PerSpring(1000.0)),
+        damping: Damping::PerSpring(0.01),
+        pins: vec![0, n - 1],
+        aero: Aero::NONE,
+        fracture: None,
+    };
+    let mut b = ModelBuilder::new();
+    b.add_cloth_grid(n, n, 0.01, |p| DVec3::new(p.x, 1.0, p.y), &opts).unwrap();
+    let model: Model<f64> = b.finalize().unwrap();
+    let config = SolverConfig {
+        integrator: Integrator::ImplicitEuler,
+        cg_tolerance: 1e-9,
+        cg_max_iterations: 2000,
+        check_finite: true,
+        substep_safety: None,
+    };
+    let h = 1.0 / 60.0;
+    let mut warm = CpuSolver::<f64>::new(config.clone());
+    let mut s = model.state();
+    let (mut warm_its, mut cold_its) = (0, 0);
+    for step in 0..40 {
+        let mut c = s.clone();
+        let mut cold = CpuSolver::<f64>::new(config.clone());
+        cold.step(&model, &mut c, h).unwrap();
+        warm.step(&model, &mut s, h).unwrap();
+        cold_its += cold.cg.iterations;
+        warm_its += warm.cg.iterations;
+        let worst = s.particle_q.iter().zip(&c.particle_q).map(|(a, b)| (*a - *b).length()).fold(0.0, f64::max);
+        assert!(worst < 1e-9, "step {step}: warm and cold solves differ by {worst:e} m");
+        // Continue from the cold result: both solvers see the same state at every step.
+        s = c;
+    }
+    assert!(warm_its < cold_its, "warm start took {warm_its} CG iterations over the run, cold {cold_its}");
+    // Another time: a cold start, bit for bit.
+    let mut other = s.clone();
+    other.time += 1.0;
+    let mut fresh_state = other.clone();
+    warm.step(&model, &mut other, h).unwrap();
+    CpuSolver::<f64>::new(config).step(&model, &mut fresh_state, h).unwrap();
+    assert_eq!(other.particle_q, fresh_state.particle_q);
+}

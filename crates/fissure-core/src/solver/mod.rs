@@ -292,6 +292,7 @@ impl<R: Real> CpuSolver<R> {
         i.coef.resize(if imp { m.spring_count() } else { 0 }, [R::ZERO; 4]);
         i.body_c.resize(m.body_count(), R::ZERO);
         i.body_dot.resize(m.body_count(), R::ZERO);
+        i.warm = None;
     }
 
     /// Springs and surface passes at `(q, qd)`, timed. Returns whether triangle forces exist.
@@ -452,6 +453,9 @@ impl<R: Real> CpuSolver<R> {
         }
         let t = s.time;
         s.time += dt;
+        if self.config.integrator == Integrator::ImplicitEuler {
+            self.imp.warm = Some((s.time, h));
+        }
         if m.has_handles() {
             move_handles(m, s, t, s.time);
         }
