@@ -134,17 +134,35 @@ fn candidates<R: Real>(
     skip: impl Fn(usize) -> bool,
     out: &mut Vec<(f64, u8, u32)>,
 ) {
-    if alpha >= 1.0 && !any_over(values, limits) {
+    if alpha >= 1.0 {
+        if !any_over(values, limits) {
+            return;
+        }
+        for (k, &x) in values.iter().enumerate() {
+            let lim = limits[k];
+            if lim.is_finite() && !skip(k) && x > lim {
+                out.push(((x / lim).to_f64(), kind, k as u32));
+            }
+        }
         return;
     }
-    for (k, &x) in values.iter().enumerate() {
+    // The averaged trigger updates every average at every step: one branch-free sweep (it vectorises) updates
+    // them and finds whether any passes its limit, the usual answer being no; only then are they listed.
+    let a = R::from_f64(alpha);
+    let mut any = false;
+    for (k, (g, (&x, &lim))) in avg.iter_mut().zip(values.iter().zip(limits)).enumerate() {
+        let live = lim.is_finite() & !skip(k);
+        let next = *g + (x - *g) * a;
+        *g = if live { next } else { *g };
+        any |= live & (next > lim);
+    }
+    if !any {
+        return;
+    }
+    for (k, &g) in avg.iter().enumerate() {
         let lim = limits[k];
-        if !lim.is_finite() || skip(k) {
-            continue;
-        }
-        let v = triggered(&mut avg[k], x, alpha);
-        if v > lim {
-            out.push(((v / lim).to_f64(), kind, k as u32));
+        if lim.is_finite() && !skip(k) && g > lim {
+            out.push(((g / lim).to_f64(), kind, k as u32));
         }
     }
 }
@@ -160,14 +178,4 @@ fn alpha(trigger: Trigger, dt: f64) -> f64 {
         Trigger::Instant => 1.0,
         Trigger::Averaged { window } => 1.0 - (-dt / window.max(1e-12)).exp(),
     }
-}
-
-/// The trigger's value for a new sample `x`: `x` itself (instantaneous, `alpha = 1`), or the exponential moving
-/// average `avg` updated by `alpha`.
-fn triggered<R: Real>(avg: &mut R, x: R, alpha: f64) -> R {
-    if alpha >= 1.0 {
-        return x;
-    }
-    *avg += (x - *avg) * R::from_f64(alpha);
-    *avg
 }
