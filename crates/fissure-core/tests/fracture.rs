@@ -459,3 +459,46 @@ fn solver_measures_match_an_independent_f64_computation() {
     }
     assert!(checked > 600);
 }
+
+/// A model that breaks by strain alone measures strains, not loads: the strains match an independent `f64`
+/// computation, every load reads 0, and the step is the same as the measured one of a model that also has
+/// (unreachable) load limits, bit for bit: measuring does not change the physics.
+#[test]
+fn strain_only_models_measure_strains_and_skip_loads() {
+    use fissure_core::forces::spring;
+    let ball = |load_limit: f64| {
+        let mut b = ModelBuilder::new();
+        let opts = SoftBodyOptions {
+            gas: Gas::Pressure(2000.0),
+            fracture: Some(Breakable { strain_limit: 0.4, load_limit, ..Default::default() }),
+            velocity: DVec3::new(0.3, -1.0, 0.0),
+            ..Default::default()
+        };
+        b.add_soft_body(&Mesh::icosphere(0.25, 2), &opts).unwrap();
+        b.finalize().unwrap()
+    };
+    let (m, loaded): (Model<f32>, Model<f32>) = (ball(f64::INFINITY), ball(1e9));
+    let (mut s, mut s2) = (m.state(), loaded.state());
+    let (mut solver, mut solver2) = (CpuSolver::<f32>::default(), CpuSolver::<f32>::default());
+    for _ in 0..20 {
+        solver.step(&m, &mut s, 1e-5).unwrap();
+        solver2.step(&loaded, &mut s2, 1e-5).unwrap();
+    }
+    assert_eq!(s.particle_q, s2.particle_q);
+    assert_eq!(s.particle_qd, s2.particle_qd);
+    let s0 = s.clone();
+    solver.step(&m, &mut s, 1e-5).unwrap();
+    let x = solver.measures(&m).expect("a breakable model on the per-spring kernel is measured");
+    let q = |i: u32| s0.particle_q[i as usize].to_dvec3();
+    let mut worst = 0.0f64;
+    for (sp, &[i, j]) in m.spring_indices.iter().enumerate() {
+        let want = spring::strain((q(j) - q(i)).length(), m.spring_rest_length[sp] as f64);
+        worst = worst.max((x.strain[sp] as f64 - want).abs());
+    }
+    assert!(worst < 1e-5, "strain differs by {worst:e}");
+    assert!(x.load.iter().all(|&l| l == 0.0), "no particle can break by load: no load measured");
+    solver2.step(&loaded, &mut s2, 1e-5).unwrap();
+    let y = solver2.measures(&loaded).unwrap();
+    assert!(y.load.iter().any(|&l| l > 0.0), "the model with load limits measures its loads");
+    assert_eq!(x.strain, y.strain);
+}

@@ -56,6 +56,8 @@ pub(crate) struct ForceScratch<R: Real> {
     pub spring_el: Vec<R::V>,
     /// Load of each particle \[N\], 0 where it has no finite load limit (measuring only).
     pub load: Vec<R>,
+    /// Whether `load` may hold non-zero values (a measuring step with load limits wrote it).
+    pub loads_written: bool,
     /// Whether `strain`, `spring_el`, `load` hold the start of the last (sub)step.
     pub measured: bool,
 }

@@ -26,10 +26,12 @@ impl<R: Real> ForceScratch<R> {
     }
 
     /// [`ForceScratch::springs`] that also measures the fracture trigger's inputs: each spring's strain into
-    /// `strain` and its elastic pull into `spring_el` (per-spring kernel only; see `ForceScratch::resize`).
-    pub fn springs_measured(&mut self, m: &Model<R>, q: &[R::V], qd: &[R::V]) {
+    /// `strain` and, when some particle has a finite load limit (`loads`), its elastic pull into `spring_el`
+    /// (per-spring kernel only; see `ForceScratch::resize`).
+    pub fn springs_measured(&mut self, m: &Model<R>, q: &[R::V], qd: &[R::V], loads: bool) {
         debug_assert!(self.measuring && !self.runs);
-        let (out, strain, el) = (&mut self.spring_f, &mut self.strain, &mut self.spring_el);
+        let (out, strain) = (&mut self.spring_f, &mut self.strain);
+        let el = if loads { &mut self.spring_el[..] } else { &mut [][..] };
         match m.damping_model {
             DampingModel::Projected => spring_pass_measured::<R, true>(m, q, qd, out, strain, el),
             DampingModel::Unprojected => spring_pass_measured::<R, false>(m, q, qd, out, strain, el),
@@ -133,6 +135,13 @@ fn spring_pass_measured<R: Real, const PROJECTED: bool>(
     el_out: &mut [R::V],
 ) {
     let n = out.len();
+    if el_out.is_empty() {
+        // No load limit: the strains alone.
+        par::chunks2(out, &mut strain_out[..n], |start, chunk, strains| {
+            spring_chunk_dispatch::<R, PROJECTED, true>(m, q, qd, start, chunk, strains, &mut [])
+        });
+        return;
+    }
     par::chunks3(out, &mut strain_out[..n], &mut el_out[..n], |start, chunk, strains, els| {
         spring_chunk_dispatch::<R, PROJECTED, true>(m, q, qd, start, chunk, strains, els)
     });
@@ -226,9 +235,11 @@ fn spring_chunk<R: Real, const PROJECTED: bool, const MEASURE: bool>(
             out[k0 + k] = R::V::new(t.f[0][k], t.f[1][k], t.f[2][k]);
         }
         if MEASURE {
-            for k in 0..n {
-                els[k0 + k] = R::V::new(e[0][k], e[1][k], e[2][k]);
-                strains[k0 + k] = l[k];
+            strains[k0..k0 + n].copy_from_slice(&l[..n]);
+            if !els.is_empty() {
+                for k in 0..n {
+                    els[k0 + k] = R::V::new(e[0][k], e[1][k], e[2][k]);
+                }
             }
         }
         k0 += n;

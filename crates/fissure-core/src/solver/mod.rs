@@ -305,10 +305,13 @@ impl<R: Real> CpuSolver<R> {
     fn forces(&mut self, m: &Model<R>, q: &[R::V], qd: &[R::V], time: f64) -> bool {
         let measure = std::mem::take(&mut self.measure_next) && self.f.measuring;
         let fuse = std::mem::take(&mut self.fuse_loads) && self.f.load.len() == q.len();
+        // Loads only where a particle can break by load: a model that breaks by strain alone measures strains
+        // (the particles' loads stay 0, which the trigger never reads without a finite limit).
+        let loads = measure && m.particle_load_limit.iter().fold(false, |any, l| any | l.is_finite());
         if m.spring_count() > 0 {
             let t = Instant::now();
             if measure {
-                self.f.springs_measured(m, q, qd);
+                self.f.springs_measured(m, q, qd, loads);
             } else {
                 self.f.springs(m, q, qd);
             }
@@ -325,10 +328,15 @@ impl<R: Real> CpuSolver<R> {
             if m.spring_count() == 0 {
                 self.f.strain.iter_mut().for_each(|s| *s = R::ZERO);
             }
-            if fuse {
-                self.loads_pending = true;
-            } else {
-                self.f.loads(m, surface);
+            if loads {
+                self.f.loads_written = true;
+                if fuse {
+                    self.loads_pending = true;
+                } else {
+                    self.f.loads(m, surface);
+                }
+            } else if std::mem::take(&mut self.f.loads_written) {
+                self.f.load.iter_mut().for_each(|l| *l = R::ZERO);
             }
             self.f.measured = true;
             self.timers.add(Stage::Fracture, t);
