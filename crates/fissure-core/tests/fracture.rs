@@ -502,3 +502,51 @@ fn strain_only_models_measure_strains_and_skip_loads() {
     assert!(y.load.iter().any(|&l| l > 0.0), "the model with load limits measures its loads");
     assert_eq!(x.strain, y.strain);
 }
+
+/// A grid cloth (the run kernel) that breaks by strain gets its strains from the step itself: each spring's from
+/// the block holding its end 0, written in parallel. They are the strains of the positions at the start of the
+/// step, the same bits as the per-spring formula, on 1 thread and on 3 (the 128² cloth's passes are split
+/// between the threads).
+#[test]
+fn run_kernel_measures_every_strain_once_on_any_thread_count() {
+    let n = 128;
+    let run = |threads: usize| {
+        let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
+        pool.install(|| {
+            // The benchmark cloth (1 g, 1000 N/m), stable at 2e-4 s.
+            let opts = ClothOptions {
+                mass: Mass::PerParticle(1e-3),
+                stiffness: Stiffness::PerSpring(1000.0),
+                shear: Some(Stiffness::PerSpring(1000.0)),
+                bending: Some(Stiffness::PerSpring(1000.0)),
+                damping: Damping::PerSpring(0.01),
+                fracture: Some(Breakable { strain_limit: 10.0, ..Default::default() }),
+                pins: vec![0, n - 1],
+                aero: Aero::NONE,
+            };
+            let mut b = ModelBuilder::new();
+            b.add_cloth_grid(n, n, 0.01, |p| DVec3::new(p.x, 1.0, p.y), &opts).unwrap();
+            let m: Model<f32> = b.finalize().unwrap();
+            assert!(!m.spring_runs.is_empty(), "a grid cloth is stepped by the run kernel");
+            let mut s = m.state();
+            let mut solver = CpuSolver::<f32>::default();
+            for _ in 0..100 {
+                solver.step(&m, &mut s, 2e-4).unwrap();
+            }
+            let s0 = s.clone();
+            solver.step(&m, &mut s, 2e-4).unwrap();
+            let strain = solver.measures(&m).expect("a breakable grid cloth is measured").strain.to_vec();
+            for (sp, &[i, j]) in m.spring_indices.iter().enumerate() {
+                let want = fissure_core::forces::spring::strain(
+                    (s0.particle_q[j as usize] - s0.particle_q[i as usize]).length(),
+                    m.spring_rest_length[sp],
+                );
+                assert_eq!(strain[sp].to_bits(), want.to_bits(), "spring {sp}: {} against {want}", strain[sp]);
+            }
+            assert!(strain.iter().any(|&e| e > 1e-5), "the cloth sags: its springs stretch");
+            (strain, s.particle_q)
+        })
+    };
+    let (one, three) = (run(1), run(3));
+    assert_eq!(one, three);
+}

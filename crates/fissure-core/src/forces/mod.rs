@@ -91,13 +91,13 @@ impl<R: Real> ForceScratch<R> {
         self.cap_touched.clear();
         self.cap_g.resize(nc, R::V::ZERO);
         self.cap_f.resize(nc, R::V::ZERO);
-        // The trigger's inputs cost a write per spring and a gather per particle: only for a model that can break,
-        // and only on the per-spring kernel (the run kernel computes a spring in each block it touches; a grid
-        // cloth's trigger is scanned by the fracture pass itself).
-        self.measuring = m.has_fracture() && !self.runs;
+        // The trigger's inputs cost a write per spring and a gather per particle: only for a model that can break.
+        // The run kernel measures strains alone (each spring's in the block of its end 0): a grid cloth with load
+        // limits is scanned by the fracture pass itself.
+        self.measuring = m.has_fracture() && (!self.runs || !m.particle_load_limit.iter().any(|l| l.is_finite()));
         let (ns, np) = if self.measuring { (m.spring_count(), m.particle_count()) } else { (0, 0) };
         self.strain.resize(ns, R::ZERO);
-        self.spring_el.resize(ns, R::V::ZERO);
+        self.spring_el.resize(if self.runs { 0 } else { ns }, R::V::ZERO);
         self.load.resize(np, R::ZERO);
         self.measured = false;
     }

@@ -114,7 +114,8 @@ impl<R: Real> Fracture<R> {
     }
 }
 
-/// Every spring's strain, walking a model's runs (grid cloths: the solver's run kernel does not measure them):
+/// Every spring's strain, walking a model's runs (grid cloths the solver did not measure: with load limits, or
+/// stepped by another solver):
 /// both ends of a run's springs are contiguous slices, so no index is read and the spans' lengths, square roots
 /// and divisions vectorise. The same bits as the per-spring loop: `d = qj - qi`, `|d| = √(dx² + dy² + dz²)` summed
 /// in that order (as `length`), then [`spring::strain`]. On the 128² cloth (harness `terms`, 2026-11-24): the fracture

@@ -116,6 +116,11 @@ impl<R: Real> CpuSolver<R> {
             self.timers.add(Stage::Surface, t);
         }
         let t = Instant::now();
+        // A model that can break by strain gets its springs' strains from the kernel (see `StrainSink`).
+        let (measure, _) = self.measure_now(m);
+        let mut strain = std::mem::take(&mut self.f.strain);
+        let sink = measure.then(|| StrainSink::new(&mut strain));
+        let sink = sink.as_ref();
         // Buffers sized by `ensure_sized`.
         let (q, qd) = (&s.particle_q, &s.particle_qd);
         let f = &self.f;
@@ -127,9 +132,9 @@ impl<R: Real> CpuSolver<R> {
             &mut self.qd_next,
             |p0, fs, qs, vs| {
                 if projected {
-                    run_block_dispatch::<R, true>(m, f.run_blocks.of(p0), q, qd, p0, fs);
+                    run_block_dispatch::<R, true>(m, f.run_blocks.of(p0), q, qd, p0, fs, sink);
                 } else {
-                    run_block_dispatch::<R, false>(m, f.run_blocks.of(p0), q, qd, p0, fs);
+                    run_block_dispatch::<R, false>(m, f.run_blocks.of(p0), q, qd, p0, fs, sink);
                 }
                 if !surface {
                     // No triangle terms: the update over the components, without branches.
@@ -165,6 +170,8 @@ impl<R: Real> CpuSolver<R> {
                 }
             },
         );
+        self.f.strain = strain;
+        self.f.measured = measure;
         std::mem::swap(&mut s.particle_q, &mut self.q_next);
         std::mem::swap(&mut s.particle_qd, &mut self.qd_next);
         self.timers.add(Stage::Springs, t);

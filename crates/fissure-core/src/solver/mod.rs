@@ -19,7 +19,7 @@
 //! step was too large or something else (pressure, a collision, a broken state) did it.
 
 use crate::error::StepError;
-use crate::forces::spring::{implicit_coefficients, run_block_dispatch};
+use crate::forces::spring::{StrainSink, implicit_coefficients, run_block_dispatch};
 use crate::forces::{ForceScratch, corner, particle_force, pressure};
 use crate::fracture::TopologyDelta;
 use crate::model::{DampingModel, Model, State};
@@ -303,11 +303,11 @@ impl<R: Real> CpuSolver<R> {
     /// (The load pass is its own sweep: fused into symplectic Euler's gather it cost more than apart, measured
     /// on the fracture scene.)
     fn forces(&mut self, m: &Model<R>, q: &[R::V], qd: &[R::V], time: f64) -> bool {
-        let measure = std::mem::take(&mut self.measure_next) && self.f.measuring;
-        let fuse = std::mem::take(&mut self.fuse_loads) && self.f.load.len() == q.len();
         // Loads only where a particle can break by load: a model that breaks by strain alone measures strains
-        // (the particles' loads stay 0, which the trigger never reads without a finite limit).
-        let loads = measure && m.particle_load_limit.iter().fold(false, |any, l| any | l.is_finite());
+        // (the particles' loads stay 0, which the trigger never reads without a finite limit). The run kernel
+        // measures strains alone: with load limits its model is scanned by the fracture pass instead.
+        let (measure, loads) = self.measure_now(m);
+        let fuse = std::mem::take(&mut self.fuse_loads) && self.f.load.len() == q.len();
         if m.spring_count() > 0 {
             let t = Instant::now();
             if measure {
@@ -342,6 +342,17 @@ impl<R: Real> CpuSolver<R> {
             self.timers.add(Stage::Fracture, t);
         }
         surface
+    }
+
+    /// Whether this evaluation measures the fracture trigger's inputs (the first of a substep, of a model that can
+    /// break), and whether it measures loads too (some particle has a finite load limit); clears `measure_next`.
+    fn measure_now(&mut self, m: &Model<R>) -> (bool, bool) {
+        let measure = std::mem::take(&mut self.measure_next) && self.f.measuring;
+        let loads = measure && m.particle_load_limit.iter().fold(false, |any, l| any | l.is_finite());
+        if loads && self.f.runs {
+            return (false, false);
+        }
+        (measure, loads)
     }
 
     /// The fracture trigger's inputs measured at the start of the last substep, if this model's last step
