@@ -24,6 +24,8 @@ pub(super) struct ImplicitScratch<R: Real> {
     /// `g · p` per body.
     pub(super) body_dot: Vec<R>,
     pub(super) partials: Vec<R>,
+    /// The struct-of-arrays CG of grid models (`cg_runs.rs`).
+    pub(super) runs: super::cg_runs::RunsCg<R>,
     /// Chunk sums of the fused CG passes.
     pub(super) sums: Vec<[R; 2]>,
     /// `State::time` at the end of this solver's last implicit step, and that step's `h`: a step that starts
@@ -175,7 +177,11 @@ impl<R: Real> CpuSolver<R> {
             Some((time, h0)) if time == s.time && im.dv.len() == m.particle_count() => Some(h / h0),
             _ => None,
         };
-        let result = self.cg_solve(m, &mut im, pressure, guess);
+        let result = if super::cg_runs::serves(m) {
+            self.cg_solve_runs(m, &mut im, pressure, guess)
+        } else {
+            self.cg_solve(m, &mut im, pressure, guess)
+        };
         self.timers.add(Stage::Solve, t);
         let t = Instant::now();
         let dv = &im.dv;
@@ -361,7 +367,7 @@ fn body_dots<R: Real>(m: &Model<R>, g: &[R::V], p: &[R::V], partials: &mut Vec<R
 
 /// `z = B r` with `B` a particle's inverse diagonal block (rows).
 #[inline(always)]
-fn precondition<R: Real>(b: &[R::V; 3], r: R::V) -> R::V {
+pub(super) fn precondition<R: Real>(b: &[R::V; 3], r: R::V) -> R::V {
     R::V::new(b[0].dot(r), b[1].dot(r), b[2].dot(r))
 }
 

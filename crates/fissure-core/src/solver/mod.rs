@@ -31,6 +31,7 @@ use crate::timers::{Stage, StageTimers};
 use crate::topology::NONE;
 use std::sync::atomic::{AtomicBool, Ordering};
 
+mod cg_runs;
 mod collide;
 mod contact;
 mod explicit;
