@@ -6,10 +6,11 @@
 //! springs are contiguous, so with CG's vectors and the springs' coefficients stored per component each span's
 //! products are plain loops over arrays that the compiler vectorises, and each particle's sum is added in place:
 //! no index is read and no per-spring buffer is written and gathered again. The runs are joined across a grid's
-//! row ends ([`join_runs`]) so the loops are long, the dot products keep eight partial sums (the additions
-//! pipeline), and the solve is compiled for AVX2 where the CPU has it. On the 32² benchmark cloth at 1/60 s
-//! (`cargo bench --bench cloth`, 2026-11-24, the 2-core VM): 3.2–3.3 → 1.65–1.75 ms per step at the same 107
-//! iterations (~15 µs each, ~8 of them the product).
+//! row ends ([`join_runs`]) so the loops are long; each run's products are added to its two ends in one pass
+//! ([`spring_product`]); the dot products keep eight partial sums (the additions pipeline); the per-particle
+//! loops run over slices cut to one length (no bounds checks: they vectorise); and the solve is compiled for
+//! AVX2 where the CPU has it. On the 32² benchmark cloth at 1/60 s (2026-11-24, the 2-core VM): 3.2–3.3 →
+//! 0.98–1.16 ms per step at the same 107 iterations (~9.5 µs each, ~5.5 of them the product).
 //!
 //! It runs on the calling thread: it serves models below [`par::PAR_MIN`] springs (a model that size goes to the
 //! pool in the general solver), so the choice depends on the model alone and the bits on nothing else. Each
@@ -18,9 +19,6 @@
 
 use super::implicit::ImplicitScratch;
 use super::*;
-
-/// Springs per span.
-const SPAN: usize = 64;
 
 /// A vector of 3-vectors stored per component.
 #[derive(Clone, Debug, Default)]
@@ -67,6 +65,8 @@ pub(super) struct RunsCg<R> {
     /// The model's runs joined across short gaps ([`join_runs`]), and the spring of each of their slots.
     vruns: Vec<VRun>,
     slots: Vec<u32>,
+    /// Each slot's product of one joined run, per component ([`spring_product`]).
+    y: [Vec<R>; 3],
     /// `g · p` per body (the gas's rank-one term).
     gp: Vec<R>,
     /// The block-Jacobi preconditioner's symmetric inverse blocks per entry: `[b00, b01, b02, b11, b12, b22]`.
@@ -114,40 +114,59 @@ pub(super) fn serves<R: Real>(m: &Model<R>) -> bool {
     m.springs_are_runs() && m.spring_count() < par::PAR_MIN && m.particle_count() < par::PAR_MIN
 }
 
-#[inline(always)]
 /// `ap = Σ_runs ±B_s (p_j - p_i)` (the springs' part of `-A p`'s off-mass terms, as the general solver's
-/// `spring_gather` of `spring_apply`): `+` on end 0, `-` on end 1, spans of contiguous springs.
-fn spring_product<R: Real>(m: &Model<R>, cg: &RunsCg<R>, out: &mut Soa<R>) {
+/// `spring_gather` of `spring_apply`): `+` on end 0, `-` on end 1. Per joined run, every slot's `y_k` into `y`,
+/// then one pass over the particles it reaches adds `y_t - y_{t - off}` (`off = j - i`, the run's ends' offset):
+/// adding `y` at `i + k` and subtracting it at `j + k` in two passes made the second pass's loads overlap the
+/// first's stores a particle or two away, which stalls their forwarding.
+#[inline(always)]
+fn spring_product<R: Real>(cg: &RunsCg<R>, out: &mut Soa<R>, y: &mut [Vec<R>; 3]) {
     out.c.iter_mut().for_each(|v| v.iter_mut().for_each(|x| *x = R::ZERO));
-    let mut y = [[R::ZERO; SPAN]; 3];
     let (p, u) = (&cg.p.c, &cg.u.c);
-    let _ = m;
     for r in &cg.vruns {
-        let (i0, j0, s0) = (r.i, r.j, r.start);
-        let mut k0 = 0;
-        while k0 < r.len {
-            let n = (r.len - k0).min(SPAN);
-            let (s, i, j) = (s0 + k0, i0 + k0, j0 + k0);
-            let (iso, an) = (&cg.iso[s..s + n], &cg.aniso[s..s + n]);
-            let (ux, uy, uz) = (&u[0][s..s + n], &u[1][s..s + n], &u[2][s..s + n]);
-            let d = |c: usize, k: usize| p[c][j + k] - p[c][i + k];
-            let [yx, yy, yz] = &mut y;
-            for k in 0..n {
-                let (dx, dy, dz) = (d(0, k), d(1, k), d(2, k));
+        let (i0, j0, s0, len) = (r.i, r.j, r.start, r.len);
+        y.iter_mut().for_each(|v| v.resize(len, R::ZERO));
+        {
+            let (iso, an) = (&cg.iso[s0..s0 + len], &cg.aniso[s0..s0 + len]);
+            let (ux, uy, uz) = (&u[0][s0..s0 + len], &u[1][s0..s0 + len], &u[2][s0..s0 + len]);
+            let (pix, piy, piz) = (&p[0][i0..i0 + len], &p[1][i0..i0 + len], &p[2][i0..i0 + len]);
+            let (pjx, pjy, pjz) = (&p[0][j0..j0 + len], &p[1][j0..j0 + len], &p[2][j0..j0 + len]);
+            let [yx, yy, yz] = y;
+            let (yx, yy, yz) = (&mut yx[..len], &mut yy[..len], &mut yz[..len]);
+            for k in 0..len {
+                let (dx, dy, dz) = (pjx[k] - pix[k], pjy[k] - piy[k], pjz[k] - piz[k]);
                 let t = an[k] * (ux[k] * dx + uy[k] * dy + uz[k] * dz);
                 yx[k] = dx * iso[k] + ux[k] * t;
                 yy[k] = dy * iso[k] + uy[k] * t;
                 yz[k] = dz * iso[k] + uz[k] * t;
             }
-            for (c, yc) in y.iter().enumerate() {
-                for (o, v) in out.c[c][i..i + n].iter_mut().zip(&yc[..n]) {
+        }
+        for (c, yc) in y.iter().enumerate() {
+            let o = &mut out.c[c];
+            if j0 > i0 {
+                let off = j0 - i0;
+                let head = off.min(len);
+                for (o, v) in o[i0..i0 + head].iter_mut().zip(&yc[..head]) {
                     *o += *v;
                 }
-                for (o, v) in out.c[c][j..j + n].iter_mut().zip(&yc[..n]) {
+                if off < len {
+                    let body = &mut o[i0 + off..i0 + len];
+                    for (k, o) in body.iter_mut().enumerate() {
+                        *o += yc[off + k] - yc[k];
+                    }
+                }
+                let tail0 = off.max(len);
+                for (o, v) in o[i0 + tail0..j0 + len].iter_mut().zip(&yc[tail0 - off..len]) {
+                    *o -= *v;
+                }
+            } else {
+                for (o, v) in o[i0..i0 + len].iter_mut().zip(&yc[..len]) {
+                    *o += *v;
+                }
+                for (o, v) in o[j0..j0 + len].iter_mut().zip(&yc[..len]) {
                     *o -= *v;
                 }
             }
-            k0 += n;
         }
     }
 }
@@ -230,30 +249,6 @@ fn solve<R: Real>(
     for v in [&mut cg.z, &mut cg.p, &mut cg.ap, &mut cg.x] {
         v.resize(n);
     }
-    // `ap = A p` (zero on pinned particles), returning `p · ap`.
-    let apply = |cg: &mut RunsCg<R>, im: &ImplicitScratch<R>| -> R {
-        let mut ap = std::mem::take(&mut cg.ap);
-        spring_product_dispatch(m, cg, &mut ap);
-        for c in 0..3 {
-            for (i, a) in ap.c[c].iter_mut().enumerate() {
-                let y = cg.p.c[c][i] * m.particle_mass[i] - *a;
-                *a = if w[i] == R::ZERO { R::ZERO } else { y };
-            }
-        }
-        if pressure {
-            let mut gp = std::mem::take(&mut cg.gp);
-            body_dots_soa(m, &im.g, &cg.p, &mut gp);
-            for i in 0..n {
-                let body = m.particle_body[i];
-                if w[i] != R::ZERO && body != NONE {
-                    ap.set(i, ap.get(i) + im.g[i] * (im.body_c[body as usize] * gp[body as usize]));
-                }
-            }
-            cg.gp = gp;
-        }
-        cg.ap = ap;
-        dot(&cg.p, &cg.ap)
-    };
     match guess {
         Some(scale) => {
             for i in 0..n {
@@ -261,7 +256,7 @@ fn solve<R: Real>(
                 cg.x.set(i, v);
             }
             cg.p.c.clone_from(&cg.x.c);
-            apply(&mut cg, im);
+            apply(m, &mut cg, im, pressure);
             for c in 0..3 {
                 for (r, a) in cg.r.c[c].iter_mut().zip(&cg.ap.c[c]) {
                     *r -= *a;
@@ -276,18 +271,6 @@ fn solve<R: Real>(
         let (row, col) = [(0, 0), (0, 1), (0, 2), (1, 1), (1, 2), (2, 2)][e];
         v.extend(im.block.iter().map(|b| b[row].to_array()[col]));
     }
-    // z = B r, each row `b · r` summed x, y, z (the bits of `implicit::precondition`).
-    let precondition = |cg: &mut RunsCg<R>| {
-        let [b00, b01, b02, b11, b12, b22] = &cg.block;
-        let [rx, ry, rz] = &cg.r.c;
-        let [zx, zy, zz] = &mut cg.z.c;
-        for i in 0..rx.len() {
-            let (x, y, z) = (rx[i], ry[i], rz[i]);
-            zx[i] = b00[i] * x + b01[i] * y + b02[i] * z;
-            zy[i] = b01[i] * x + b11[i] * y + b12[i] * z;
-            zz[i] = b02[i] * x + b12[i] * y + b22[i] * z;
-        }
-    };
     precondition(&mut cg);
     cg.p.c.clone_from(&cg.z.c);
     let (mut rz, mut rr) = (dot(&cg.r, &cg.z), dot(&cg.r, &cg.r));
@@ -295,7 +278,7 @@ fn solve<R: Real>(
     let mut result = Ok(());
     let mut stats = CgStats::default();
     while it < max && rr > tol2 {
-        let pap = apply(&mut cg, im);
+        let pap = apply(m, &mut cg, im, pressure);
         if !pap.is_finite() || pap <= R::ZERO {
             // Positive definite by construction (see `cg_solve`): the state itself is broken.
             let residual = (rr / bnorm2).to_f64().sqrt();
@@ -338,8 +321,56 @@ fn solve<R: Real>(
     (result, stats)
 }
 
+/// `cg.ap = A cg.p` (zero on pinned particles), returning `p · ap`.
+#[inline(always)]
+fn apply<R: Real>(m: &Model<R>, cg: &mut RunsCg<R>, im: &ImplicitScratch<R>, pressure: bool) -> R {
+    let (n, w) = (m.particle_count(), &m.particle_inv_mass);
+    let (mut ap, mut y) = (std::mem::take(&mut cg.ap), std::mem::take(&mut cg.y));
+    spring_product_dispatch(cg, &mut ap, &mut y);
+    cg.y = y;
+    let (mass, w) = (&m.particle_mass[..n], &w[..n]);
+    for c in 0..3 {
+        for ((a, &p), (&mi, &wi)) in ap.c[c][..n].iter_mut().zip(&cg.p.c[c][..n]).zip(mass.iter().zip(w)) {
+            let y = p * mi - *a;
+            *a = if wi == R::ZERO { R::ZERO } else { y };
+        }
+    }
+    if pressure {
+        let mut gp = std::mem::take(&mut cg.gp);
+        body_dots_soa(m, &im.g, &cg.p, &mut gp);
+        for i in 0..n {
+            let body = m.particle_body[i];
+            if w[i] != R::ZERO && body != NONE {
+                ap.set(i, ap.get(i) + im.g[i] * (im.body_c[body as usize] * gp[body as usize]));
+            }
+        }
+        cg.gp = gp;
+    }
+    cg.ap = ap;
+    dot(&cg.p, &cg.ap)
+}
+
+/// `cg.z = B cg.r`, each row `b · r` summed x, y, z (the bits of `implicit::precondition`).
+#[inline(always)]
+fn precondition<R: Real>(cg: &mut RunsCg<R>) {
+    let n = cg.r.c[0].len();
+    let [b00, b01, b02, b11, b12, b22] = &cg.block;
+    let (b00, b01, b02, b11, b12, b22) = (&b00[..n], &b01[..n], &b02[..n], &b11[..n], &b12[..n], &b22[..n]);
+    let [rx, ry, rz] = &cg.r.c;
+    let (rx, ry, rz) = (&rx[..n], &ry[..n], &rz[..n]);
+    let [zx, zy, zz] = &mut cg.z.c;
+    let (zx, zy, zz) = (&mut zx[..n], &mut zy[..n], &mut zz[..n]);
+    for i in 0..n {
+        let (x, y, z) = (rx[i], ry[i], rz[i]);
+        zx[i] = b00[i] * x + b01[i] * y + b02[i] * z;
+        zy[i] = b01[i] * x + b11[i] * y + b12[i] * z;
+        zz[i] = b02[i] * x + b12[i] * y + b22[i] * z;
+    }
+}
+
 /// `a · b`, in eight interleaved partial sums (so that the additions pipeline and vectorise) added in a fixed
 /// order at the end: the same bits on every run.
+#[inline(always)]
 fn dot<R: Real>(a: &Soa<R>, b: &Soa<R>) -> R {
     let mut acc = [R::ZERO; 8];
     for c in 0..3 {
@@ -358,22 +389,22 @@ fn dot<R: Real>(a: &Soa<R>, b: &Soa<R>) -> R {
 }
 
 /// [`spring_product`] compiled for AVX2 when the CPU has it (the same bits: see `run_block_dispatch`).
-fn spring_product_dispatch<R: Real>(m: &Model<R>, cg: &RunsCg<R>, out: &mut Soa<R>) {
+fn spring_product_dispatch<R: Real>(cg: &RunsCg<R>, out: &mut Soa<R>, y: &mut [Vec<R>; 3]) {
     #[cfg(target_arch = "x86_64")]
     {
         if std::arch::is_x86_feature_detected!("avx2") {
             // SAFETY: the CPU supports AVX2, checked just above.
-            unsafe { spring_product_avx2(m, cg, out) };
+            unsafe { spring_product_avx2(cg, out, y) };
             return;
         }
     }
-    spring_product(m, cg, out)
+    spring_product(cg, out, y)
 }
 
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2")]
-fn spring_product_avx2<R: Real>(m: &Model<R>, cg: &RunsCg<R>, out: &mut Soa<R>) {
-    spring_product(m, cg, out)
+fn spring_product_avx2<R: Real>(cg: &RunsCg<R>, out: &mut Soa<R>, y: &mut [Vec<R>; 3]) {
+    spring_product(cg, out, y)
 }
 
 /// `Σ_{i in body b} g_i · p_i` per body (the gas's rank-one term), in particle order.
