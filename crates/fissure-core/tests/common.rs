@@ -22,3 +22,20 @@ impl Rng {
         DVec3::new(self.sym(), self.sym(), self.sym())
     }
 }
+
+/// The foundation benchmark's cloth options (`fissure::scenes::benchmark_cloth`, which this crate cannot reach):
+/// 1 g per particle, structural, shear and bending springs of 1000 N/m, damping 0.01 N·s/m, no aerodynamics,
+/// pins at grid indices `pins`, and `fracture`.
+pub fn bench_cloth_options(pins: Vec<usize>, fracture: Option<fissure_core::Breakable>) -> fissure_core::ClothOptions {
+    use fissure_core::{Aero, ClothOptions, Damping, Mass, Stiffness};
+    ClothOptions {
+        mass: Mass::PerParticle(1e-3),
+        stiffness: Stiffness::PerSpring(1000.0),
+        shear: Some(Stiffness::PerSpring(1000.0)),
+        bending: Some(Stiffness::PerSpring(1000.0)),
+        damping: Damping::PerSpring(0.01),
+        pins,
+        aero: Aero::NONE,
+        fracture,
+    }
+}

@@ -514,16 +514,8 @@ fn run_kernel_measures_every_strain_once_on_any_thread_count() {
         let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
         pool.install(|| {
             // The benchmark cloth (1 g, 1000 N/m), stable at 2e-4 s.
-            let opts = ClothOptions {
-                mass: Mass::PerParticle(1e-3),
-                stiffness: Stiffness::PerSpring(1000.0),
-                shear: Some(Stiffness::PerSpring(1000.0)),
-                bending: Some(Stiffness::PerSpring(1000.0)),
-                damping: Damping::PerSpring(0.01),
-                fracture: Some(Breakable { strain_limit: 10.0, ..Default::default() }),
-                pins: vec![0, n - 1],
-                aero: Aero::NONE,
-            };
+            let breakable = Breakable { strain_limit: 10.0, ..Default::default() };
+            let opts = common::bench_cloth_options(vec![0, n - 1], Some(breakable));
             let mut b = ModelBuilder::new();
             b.add_cloth_grid(n, n, 0.01, |p| DVec3::new(p.x, 1.0, p.y), &opts).unwrap();
             let m: Model<f32> = b.finalize().unwrap();

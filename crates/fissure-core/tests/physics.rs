@@ -336,16 +336,7 @@ fn undamped_symplectic_integrators_keep_energy_bounded_for_1e5_steps() {
 #[test]
 fn implicit_warm_start_changes_iterations_not_the_solution() {
     let n = 16;
-    let opts = ClothOptions {
-        mass: Mass::PerParticle(1e-3),
-        stiffness: Stiffness::PerSpring(1000.0),
-        shear: Some(Stiffness::PerSpring(1000.0)),
-        bending: Some(Stiffness::PerSpring(1000.0)),
-        damping: Damping::PerSpring(0.01),
-        pins: vec![0, n - 1],
-        aero: Aero::NONE,
-        fracture: None,
-    };
+    let opts = common::bench_cloth_options(vec![0, n - 1], None);
     let mut b = ModelBuilder::new();
     b.add_cloth_grid(n, n, 0.01, |p| DVec3::new(p.x, 1.0, p.y), &opts).unwrap();
     let model: Model<f64> = b.finalize().unwrap();
@@ -388,16 +379,7 @@ fn implicit_warm_start_changes_iterations_not_the_solution() {
 #[test]
 fn implicit_solves_on_runs_and_per_spring_agree() {
     let n = 32;
-    let opts = ClothOptions {
-        mass: Mass::PerParticle(1e-3),
-        stiffness: Stiffness::PerSpring(1000.0),
-        shear: Some(Stiffness::PerSpring(1000.0)),
-        bending: Some(Stiffness::PerSpring(1000.0)),
-        damping: Damping::PerSpring(0.01),
-        pins: vec![0, n - 1],
-        aero: Aero::NONE,
-        fracture: None,
-    };
+    let opts = common::bench_cloth_options(vec![0, n - 1], None);
     let mut b = ModelBuilder::new();
     b.add_cloth_grid(n, n, 0.01, |p| DVec3::new(p.x, 1.0, p.y), &opts).unwrap();
     let grid: Model<f64> = b.finalize().unwrap();
