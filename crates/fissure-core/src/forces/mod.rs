@@ -56,8 +56,9 @@ pub(crate) struct ForceScratch<R: Real> {
     pub spring_el: Vec<R::V>,
     /// Load of each particle \[N\], 0 where it has no finite load limit (measuring only).
     pub load: Vec<R>,
-    /// Whether `load` may hold non-zero values (a measuring step with load limits wrote it).
-    pub loads_written: bool,
+    /// Some particle has a finite load limit: measuring evaluations write `spring_el` and sum `load` (else the
+    /// strains alone, and `load` stays 0).
+    pub loads: bool,
     /// Whether `strain`, `spring_el`, `load` hold the start of the last (sub)step.
     pub measured: bool,
 }
@@ -91,14 +92,18 @@ impl<R: Real> ForceScratch<R> {
         self.cap_touched.clear();
         self.cap_g.resize(nc, R::V::ZERO);
         self.cap_f.resize(nc, R::V::ZERO);
-        // The trigger's inputs cost a write per spring and a gather per particle: only for a model that can break.
-        // The run kernel measures strains alone (each spring's in the block of its end 0): a grid cloth with load
-        // limits is scanned by the fracture pass itself.
-        self.measuring = m.has_fracture() && (!self.runs || !m.particle_load_limit.iter().any(|l| l.is_finite()));
+        // The trigger's inputs cost a write per spring and a gather per particle: only for a model that can break,
+        // and the loads only for one that can break by load. The run kernel measures strains alone (each spring's
+        // in the block of its end 0): a grid cloth with load limits is scanned by the fracture pass itself.
+        self.loads = m.particle_load_limit.iter().any(|l| l.is_finite());
+        self.measuring = m.has_fracture() && !(self.runs && self.loads);
         let (ns, np) = if self.measuring { (m.spring_count(), m.particle_count()) } else { (0, 0) };
         self.strain.resize(ns, R::ZERO);
-        self.spring_el.resize(if self.runs { 0 } else { ns }, R::V::ZERO);
+        self.spring_el.resize(if self.loads { ns } else { 0 }, R::V::ZERO);
         self.load.resize(np, R::ZERO);
+        if !self.loads {
+            self.load.iter_mut().for_each(|l| *l = R::ZERO);
+        }
         self.measured = false;
     }
 

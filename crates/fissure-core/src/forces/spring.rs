@@ -26,10 +26,10 @@ impl<R: Real> ForceScratch<R> {
     }
 
     /// [`ForceScratch::springs`] that also measures the fracture trigger's inputs: each spring's strain into
-    /// `strain` and, when some particle has a finite load limit (`loads`), its elastic pull into `spring_el`
-    /// (per-spring kernel only; see `ForceScratch::resize`).
-    pub fn springs_measured(&mut self, m: &Model<R>, q: &[R::V], qd: &[R::V], loads: bool) {
-        debug_assert!(self.measuring && !(self.runs && loads));
+    /// `strain` and, when some particle has a finite load limit, its elastic pull into `spring_el` (per-spring
+    /// kernel only: see `ForceScratch::resize`).
+    pub fn springs_measured(&mut self, m: &Model<R>, q: &[R::V], qd: &[R::V]) {
+        debug_assert!(self.measuring);
         if self.runs {
             // The run kernel measures strains alone (a model with load limits is not measured on it).
             let sink = StrainSink::new(&mut self.strain);
@@ -43,8 +43,8 @@ impl<R: Real> ForceScratch<R> {
             }
             return;
         }
-        let (out, strain) = (&mut self.spring_f, &mut self.strain);
-        let el = if loads { &mut self.spring_el[..] } else { &mut [][..] };
+        // Empty without load limits: the strains alone.
+        let (out, strain, el) = (&mut self.spring_f, &mut self.strain, &mut self.spring_el);
         match m.damping_model {
             DampingModel::Projected => spring_pass_measured::<R, true>(m, q, qd, out, strain, el),
             DampingModel::Unprojected => spring_pass_measured::<R, false>(m, q, qd, out, strain, el),

@@ -164,8 +164,8 @@ fn particle_candidates<R: Real>(m: &Model<R>, load: &[R], avg: &mut [R], alpha: 
 }
 
 /// Appends `(value / limit, kind, k)` for every `k` with a finite limit, not skipped, whose (averaged) value passes
-/// it. For the instantaneous trigger one branch-free sweep (it vectorises) first finds whether any value passes
-/// at all, the usual answer being no.
+/// it. One branch-free sweep (it vectorises) first finds whether any value passes at all, the usual answer being
+/// no; the averaged trigger's sweep also updates every average (all of them, at every step).
 fn candidates<R: Real>(
     values: &[R],
     limits: &[R],
@@ -175,35 +175,29 @@ fn candidates<R: Real>(
     skip: impl Fn(usize) -> bool,
     out: &mut Vec<(f64, u8, u32)>,
 ) {
-    if alpha >= 1.0 {
+    let listed: &[R] = if alpha >= 1.0 {
         if !any_over(values, limits) {
             return;
         }
-        for (k, &x) in values.iter().enumerate() {
-            let lim = limits[k];
-            if lim.is_finite() && !skip(k) && x > lim {
-                out.push(((x / lim).to_f64(), kind, k as u32));
-            }
+        values
+    } else {
+        let a = R::from_f64(alpha);
+        let mut any = false;
+        for (k, (g, (&x, &lim))) in avg.iter_mut().zip(values.iter().zip(limits)).enumerate() {
+            let live = lim.is_finite() & !skip(k);
+            let next = *g + (x - *g) * a;
+            *g = if live { next } else { *g };
+            any |= live & (next > lim);
         }
-        return;
-    }
-    // The averaged trigger updates every average at every step: one branch-free sweep (it vectorises) updates
-    // them and finds whether any passes its limit, the usual answer being no; only then are they listed.
-    let a = R::from_f64(alpha);
-    let mut any = false;
-    for (k, (g, (&x, &lim))) in avg.iter_mut().zip(values.iter().zip(limits)).enumerate() {
-        let live = lim.is_finite() & !skip(k);
-        let next = *g + (x - *g) * a;
-        *g = if live { next } else { *g };
-        any |= live & (next > lim);
-    }
-    if !any {
-        return;
-    }
-    for (k, &g) in avg.iter().enumerate() {
+        if !any {
+            return;
+        }
+        avg
+    };
+    for (k, &v) in listed.iter().enumerate() {
         let lim = limits[k];
-        if lim.is_finite() && !skip(k) && g > lim {
-            out.push(((g / lim).to_f64(), kind, k as u32));
+        if lim.is_finite() && !skip(k) && v > lim {
+            out.push(((v / lim).to_f64(), kind, k as u32));
         }
     }
 }

@@ -117,7 +117,7 @@ impl<R: Real> CpuSolver<R> {
         }
         let t = Instant::now();
         // A model that can break by strain gets its springs' strains from the kernel (see `StrainSink`).
-        let (measure, _) = self.measure_now(m);
+        let measure = std::mem::take(&mut self.measure_next) && self.f.measuring;
         let mut strain = std::mem::take(&mut self.f.strain);
         let sink = measure.then(|| StrainSink::new(&mut strain));
         let sink = sink.as_ref();

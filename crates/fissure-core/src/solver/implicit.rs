@@ -370,7 +370,7 @@ fn body_dots<R: Real>(m: &Model<R>, g: &[R::V], p: &[R::V], partials: &mut Vec<R
 
 /// `z = B r` with `B` a particle's inverse diagonal block (rows).
 #[inline(always)]
-pub(super) fn precondition<R: Real>(b: &[R::V; 3], r: R::V) -> R::V {
+fn precondition<R: Real>(b: &[R::V; 3], r: R::V) -> R::V {
     R::V::new(b[0].dot(r), b[1].dot(r), b[2].dot(r))
 }
 

@@ -304,15 +304,12 @@ impl<R: Real> CpuSolver<R> {
     /// (The load pass is its own sweep: fused into symplectic Euler's gather it cost more than apart, measured
     /// on the fracture scene.)
     fn forces(&mut self, m: &Model<R>, q: &[R::V], qd: &[R::V], time: f64) -> bool {
-        // Loads only where a particle can break by load: a model that breaks by strain alone measures strains
-        // (the particles' loads stay 0, which the trigger never reads without a finite limit). The run kernel
-        // measures strains alone: with load limits its model is scanned by the fracture pass instead.
-        let (measure, loads) = self.measure_now(m);
+        let measure = std::mem::take(&mut self.measure_next) && self.f.measuring;
         let fuse = std::mem::take(&mut self.fuse_loads) && self.f.load.len() == q.len();
         if m.spring_count() > 0 {
             let t = Instant::now();
             if measure {
-                self.f.springs_measured(m, q, qd, loads);
+                self.f.springs_measured(m, q, qd);
             } else {
                 self.f.springs(m, q, qd);
             }
@@ -329,15 +326,13 @@ impl<R: Real> CpuSolver<R> {
             if m.spring_count() == 0 {
                 self.f.strain.iter_mut().for_each(|s| *s = R::ZERO);
             }
-            if loads {
-                self.f.loads_written = true;
+            // A model that breaks by strain alone leaves its loads at 0 (the trigger reads none without a limit).
+            if self.f.loads {
                 if fuse {
                     self.loads_pending = true;
                 } else {
                     self.f.loads(m, surface);
                 }
-            } else if std::mem::take(&mut self.f.loads_written) {
-                self.f.load.iter_mut().for_each(|l| *l = R::ZERO);
             }
             self.f.measured = true;
             self.timers.add(Stage::Fracture, t);
@@ -345,19 +340,8 @@ impl<R: Real> CpuSolver<R> {
         surface
     }
 
-    /// Whether this evaluation measures the fracture trigger's inputs (the first of a substep, of a model that can
-    /// break), and whether it measures loads too (some particle has a finite load limit); clears `measure_next`.
-    fn measure_now(&mut self, m: &Model<R>) -> (bool, bool) {
-        let measure = std::mem::take(&mut self.measure_next) && self.f.measuring;
-        let loads = measure && m.particle_load_limit.iter().fold(false, |any, l| any | l.is_finite());
-        if loads && self.f.runs {
-            return (false, false);
-        }
-        (measure, loads)
-    }
-
     /// The fracture trigger's inputs measured at the start of the last substep, if this model's last step
-    /// measured them (a model that can break, stepped by the per-spring kernel) and nothing changed since.
+    /// measured them (a model that can break; on the run kernel, one without load limits) and nothing changed since.
     pub fn measures(&self, m: &Model<R>) -> Option<crate::fracture::Measures<'_, R>> {
         let f = &self.f;
         (f.measured
