@@ -69,14 +69,18 @@ fn run_sequence(shape: Shape, ops: &[(bool, u64)], seed: u64) -> Result<(), Test
     let scale: f64 = m.particle_mass.iter().sum::<f64>() * 2.0;
     let mut f = Fracture::<f64>::default();
     for &(core, pick) in ops {
-        let events = if core {
+        let before = m.clone();
+        let delta = if core {
             let v = (pick % m.particle_count() as u64) as usize;
-            f.break_core(&mut m, &mut s, v).events
+            f.break_core(&mut m, &mut s, v)
         } else {
             let sp = (pick % m.spring_count() as u64) as usize;
-            f.break_spring(&mut m, &mut s, sp).events
+            f.break_spring(&mut m, &mut s, sp)
         };
-        if let Err(e) = check_invariants(&m) {
+        let events = &delta.events;
+        if let Err(e) =
+            check_invariants(&m).map_err(|e| e.to_string()).and_then(|_| delta_names_every_change(&before, &m, &delta))
+        {
             return Err(TestCaseError::fail(format!("{shape:?} after {events:?}: {e}")));
         }
         prop_assert_eq!(s.particle_q.len(), m.particle_count());
@@ -87,9 +91,54 @@ fn run_sequence(shape: Shape, ops: &[(bool, u64)], seed: u64) -> Result<(), Test
             let [a, b, c] = tri.map(|v| s.particle_q[v as usize]);
             prop_assert!((b - a).cross(c - a).length() > 0.0, "triangle {t} has zero area");
         }
-        for e in &events {
+        for e in events {
             prop_assert!(e.new_particles.iter().all(|&p| (p as usize) < m.particle_count()));
         }
+    }
+    Ok(())
+}
+
+/// Whether `d` names every existing particle, spring, triangle and adjacency row that differs between `before` and
+/// `after` (a mirror that re-copies only what the delta names, the GPU's, then equals the model), and flags a
+/// change of any existing body.
+fn delta_names_every_change(before: &Model<f64>, after: &Model<f64>, d: &TopologyDelta) -> Result<(), String> {
+    let [n0, s0, t0, b0] = d.old_counts;
+    let counts = [before.particle_count(), before.spring_count(), before.tri_count(), before.body_count()];
+    if counts != d.old_counts {
+        return Err(format!("old counts {:?}, the model had {counts:?}", d.old_counts));
+    }
+    let named = |list: &[u32], k: usize| list.binary_search(&(k as u32)).is_ok();
+    macro_rules! each_changed {
+        ($n:expr, $list:expr, $what:literal, [$($f:ident),*]) => {
+            for k in 0..$n {
+                $( if before.$f[k] != after.$f[k] && !named($list, k) {
+                    return Err(format!("{} {k}: {} changed and the delta does not name it", $what, stringify!($f)));
+                } )*
+            }
+        };
+    }
+    each_changed!(n0, &d.particles, "particle", [particle_mass, particle_inv_mass, particle_body, particle_load_limit]);
+    each_changed!(
+        s0,
+        &d.springs,
+        "spring",
+        [spring_indices, spring_rest_length, spring_stiffness, spring_damping, spring_kind, spring_strain_limit]
+    );
+    each_changed!(t0, &d.triangles, "triangle", [tri_indices, tri_body]);
+    if !d.rows_compacted {
+        for k in 0..n0 {
+            let same = before.particle_springs.row(k) == after.particle_springs.row(k)
+                && before.particle_tris.row(k) == after.particle_tris.row(k);
+            if !same && !named(&d.rows, k) {
+                return Err(format!("particle {k}: its adjacency rows changed and the delta does not name it"));
+            }
+        }
+    }
+    let bodies_changed = (0..b0).any(|b| {
+        before.body_gas_amount[b] != after.body_gas_amount[b] || before.body_anchor[b] != after.body_anchor[b]
+    });
+    if bodies_changed && !(d.gas || d.openings || after.body_count() != b0) {
+        return Err("a body changed and the delta flags no body change".into());
     }
     Ok(())
 }

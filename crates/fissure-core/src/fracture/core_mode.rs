@@ -110,8 +110,7 @@ impl<R: Real> Fracture<R> {
             }
         }
         for (i, &(rest, _)) in shares.iter().enumerate() {
-            set_mass(m, p[i] as usize, rest);
-            self.delta.particles.push(p[i]);
+            self.set_mass(m, p[i] as usize, rest);
         }
         for (i, &(t, _, _)) in ring.iter().enumerate() {
             set_tri(m, t, [v, c[i], c[(i + 1) % k]]);

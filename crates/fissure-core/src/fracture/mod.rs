@@ -281,7 +281,8 @@ pub struct TopologyDelta {
     pub rows: Vec<u32>,
     /// The adjacency lists were compacted: every row may have moved (a mirror re-copies them all).
     pub rows_compacted: bool,
-    /// Existing springs that broke or moved an end.
+    /// Existing springs that broke, moved an end, or had their stiffness or damping scaled (their end's mass
+    /// changed).
     pub springs: Vec<u32>,
     /// Existing triangles that were rewritten.
     pub triangles: Vec<u32>,
@@ -620,6 +621,15 @@ impl<R: Real> Fracture<R> {
             self.touched[v] = self.step_gen;
             self.touched_list.push(v as u32);
         }
+    }
+
+    /// Sets particle `i`'s mass (its springs' stiffness and damping scale down with it, see
+    /// `model::edit::set_mass`) and names the particle and all of those springs in the delta: a mirror of the
+    /// model (the GPU's) must re-copy them, or it steps the split's neighbours on their old stiffness.
+    fn set_mass(&mut self, m: &mut Model<R>, i: usize, mass: R) {
+        crate::model::edit::set_mass(m, i, mass);
+        self.delta.particles.push(i as u32);
+        self.delta.springs.extend(m.particle_springs.row(i).iter().map(|&e| e >> 1));
     }
 
     fn was_touched(&self, v: u32) -> bool {

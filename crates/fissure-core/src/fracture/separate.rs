@@ -29,8 +29,7 @@ impl<R: Real> Fracture<R> {
             }
             copies.push(cp);
         }
-        set_mass(m, vu, rest);
-        self.delta.particles.push(v);
+        self.set_mass(m, vu, rest);
         // Springs follow the fan holding their other end, else the nearest fan.
         let centres: Vec<DVec3> = fan_verts
             .iter()
@@ -80,6 +79,7 @@ impl<R: Real> Fracture<R> {
             m.particle_body[x as usize] = nb;
             for &t in m.particle_tris.row(x as usize) {
                 m.tri_body[t as usize] = nb;
+                self.delta.triangles.push(t);
             }
             self.delta.particles.push(x);
         }

@@ -86,9 +86,8 @@ impl<R: Real> Fracture<R> {
         let (ks, kd) = (m.spring_stiffness[spu], m.spring_damping[spu]);
         let red = reduced(m.particle_mass[au], m.particle_mass[bu]);
         break_spring(m, sp);
-        set_mass(m, au, rest_a);
-        set_mass(m, bu, rest_b);
-        self.delta.particles.extend([a, b]);
+        self.set_mass(m, au, rest_a);
+        self.set_mass(m, bu, rest_b);
         self.delta.springs.push(sp);
         // The springs of a crack's faces (the halves of the broken spring and the slit's sides) do not break: a
         // crack runs through the material at its tips, where the stress concentrates. Breakable, the faces --
