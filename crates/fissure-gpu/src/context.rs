@@ -30,10 +30,7 @@ impl GpuContext {
     }
 
     async fn new_async(limits: Option<wgpu::Limits>) -> Result<Self, GpuError> {
-        let mut desc = wgpu::InstanceDescriptor::new_without_display_handle_from_env();
-        if std::env::var_os("WGPU_BACKEND").is_none() {
-            desc.backends = wgpu::Backends::PRIMARY;
-        }
+        let desc = instance_descriptor();
         let backends = desc.backends;
         let instance = wgpu::Instance::new(desc);
         let mut adapters = instance.enumerate_adapters(backends).await;
@@ -73,4 +70,24 @@ impl GpuContext {
 /// failure (CI installs lavapipe, so its absence is a broken CI), elsewhere the caller skips loudly.
 pub fn adapter_required() -> bool {
     std::env::var("CI").map(|v| !v.is_empty() && v != "false" && v != "0").unwrap_or(false)
+}
+
+/// The instance settings of every device fissure opens (this context's and the viewer's): wgpu's, from the
+/// environment (`WGPU_BACKEND`, `WGPU_VALIDATION`, ...), with the primary backends unless `WGPU_BACKEND` names
+/// others, and without wgpu's indirect-call validation unless `WGPU_VALIDATION_INDIRECT_CALL` asks for it.
+///
+/// That validation (on by default, release builds too) runs a small compute pass of wgpu's own before every
+/// indirect dispatch. fissure's only indirect dispatches are the contact pass's, over the pairs found in a substep,
+/// and `contact_args` (`shaders/contact.wgsl`) writes their arguments within the device's limit (at most 65,535
+/// workgroups per dimension), so the check finds nothing; on an H100 it cost ~30 µs of submission per indirect
+/// dispatch, 18 of them per contact substep with the default 16 iterations (`benches/RESULTS.md`, issue 16).
+pub fn instance_descriptor() -> wgpu::InstanceDescriptor {
+    let mut desc = wgpu::InstanceDescriptor::new_without_display_handle_from_env();
+    if std::env::var_os("WGPU_BACKEND").is_none() {
+        desc.backends = wgpu::Backends::PRIMARY;
+    }
+    if std::env::var_os("WGPU_VALIDATION_INDIRECT_CALL").is_none() {
+        desc.flags.remove(wgpu::InstanceFlags::VALIDATION_INDIRECT_CALL);
+    }
+    desc
 }

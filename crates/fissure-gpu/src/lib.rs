@@ -41,7 +41,7 @@ pub mod render;
 pub mod sdf;
 mod solver;
 
-pub use context::{GpuContext, adapter_required};
+pub use context::{GpuContext, adapter_required, instance_descriptor};
 pub use layout::{GpuBody, GpuCollider, GpuParticle, GpuSpring, MAX_GPU_HANDLES, Params, STATE_STRIDE};
 pub use sdf::SdfGrid;
 pub use solver::{Candidates, GpuConfig, GpuSolver, RunReport};
