@@ -78,11 +78,11 @@ pub const KERNEL_BINDINGS: [(&str, &[u32]); 27] = [
     ("load_check", &[1, 3, 4, 5, 6, 9, 19]),
     ("contact_save", &[1, 20, 23, 24, 26]),
     ("contact_edges", &[1, 22, 24, 26]),
-    ("contact_scan", &[24]),
+    ("contact_scan", &[30]),
     ("contact_scatter", &[20, 22, 23, 24]),
     ("contact_moves", &[2, 20, 23, 26]),
-    ("contact_vt", &[3, 7, 20, 21, 23, 24, 25, 26]),
-    ("contact_ee", &[3, 20, 21, 22, 23, 24, 25, 26]),
+    ("contact_vt", &[3, 7, 20, 21, 23, 25, 26, 29]),
+    ("contact_ee", &[3, 20, 21, 22, 23, 25, 26, 29]),
     ("contact_args", &[26, 28]),
     ("contact_prep", &[25, 26, 27]),
     ("contact_jacobi_even", &CONTACT_IMPULSE),
@@ -100,7 +100,7 @@ const CONTACT_IMPULSE: [u32; 5] = [2, 3, 25, 26, 27];
 const FORCE_GATHER: [u32; 8] = [1, 2, 3, 4, 5, 6, 9, 18];
 
 /// Storage buffers of `common.wgsl` written by some kernel (declared `read_write`); the rest are read-only.
-pub const READ_WRITE_BINDINGS: [u32; 14] = [2, 8, 9, 11, 12, 17, 18, 19, 23, 24, 25, 26, 27, 28];
+pub const READ_WRITE_BINDINGS: [u32; 15] = [2, 8, 9, 11, 12, 17, 18, 19, 23, 24, 25, 26, 27, 28, 30];
 
 /// The declarations every kernel file shares (bindings, structs, helpers).
 pub const COMMON_WGSL: &str = include_str!("../../../shaders/common.wgsl");

@@ -60,7 +60,7 @@ impl GpuSolver {
             21 => &self.c_body.buffer,
             22 => &self.c_edges.buffer,
             23 => &s.c_x0,
-            24 => &s.c_grid,
+            24 | 29 | 30 => &s.c_grid,
             25 => &s.c_pairs,
             26 => &s.c_ctl,
             27 => &s.c_acc,

@@ -2,6 +2,9 @@
 //! `fissure_core::contact`'s; the kernels' docs say how the GPU solves it.
 
 use super::scratch::PAIR_BYTES;
+
+/// Invocations per element in the pair searches: `LANES` in `shaders/contact.wgsl`.
+const SEARCH_LANES: usize = 8;
 use super::*;
 
 impl GpuSolver {
@@ -22,8 +25,9 @@ impl GpuSolver {
         let np = groups(n);
         let dst = 1 - self.cur;
         self.dispatch(pass, k!("contact_moves"), dst, clock, np);
-        self.dispatch(pass, k!("contact_vt"), dst, clock, groups(m.tri_count()));
-        self.dispatch(pass, k!("contact_ee"), dst, clock, groups(ne));
+        // `LANES` invocations per element (contact.wgsl).
+        self.dispatch(pass, k!("contact_vt"), dst, clock, groups(SEARCH_LANES * m.tri_count()));
+        self.dispatch(pass, k!("contact_ee"), dst, clock, groups(SEARCH_LANES * ne));
         self.dispatch(pass, k!("contact_args"), dst, clock, (1, 1));
         self.dispatch_pairs(pass, k!("contact_prep"), dst, clock);
         // An even count: the friction pass reads the totals the last (odd) iteration completed.
