@@ -493,6 +493,23 @@ fn contact_jacobi_odd(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(nu
     jacobi(flat_index(gid, nwg), 1u);
 }
 
+// Every Jacobi iteration in one workgroup, a storage barrier between two (the same updates as one dispatch per
+// iteration, so the same bits: each pair is owned by one invocation throughout, and an iteration's sums are whole
+// before the next reads them). A dispatch costs ~10 µs on an H100 whatever its size, so for the few hundred pairs
+// a substep usually has one workgroup looping is much cheaper than 16 dispatches; the solver picks it by the last
+// submission's pair count (`GpuConfig::contact_fused_pairs`).
+@compute @workgroup_size(256)
+fn contact_jacobi_fused(@builtin(local_invocation_index) t: u32) {
+    let iterations = params.contact_n.w;
+    for (var it = 0u; it < iterations; it++) {
+        let n = pair_count();
+        for (var k = t; k < n; k += 256u) {
+            jacobi(k, it % 2u);
+        }
+        storageBarrier();
+    }
+}
+
 // Coulomb friction: tangential relative velocity removed up to mu times the pair's normal impulse. After an even
 // number of Jacobi iterations set 0 holds every normal change; set 1 gets the last iteration's changes again and
 // the friction impulses, and is the one applied.

@@ -466,17 +466,22 @@ fn only_the_kernels_a_model_needs_are_encoded() {
     let step = ["surface_cross", "surface_volume", "surface_force", "integrate_symplectic_euler"];
     let check = ["surface_cross", "surface_volume", "surface_pressure", "load_check"];
     assert_eq!(p, [&step[..], &check[..]].concat().repeat(2));
-    // Contact: the grids before the step, the pairs, 16 Jacobi iterations (one dispatch each), friction and the
-    // bound after it.
+    // Contact: the grids before the step, the pairs, the Jacobi iterations (few pairs: all in one dispatch; else
+    // 16, one dispatch each), friction and the bound after it.
     let mut b = scenes::benchmark_cloth(8).unwrap();
     b.set_contact(0, Contact { self_collision: true, ..Default::default() }).unwrap();
     let m: Model<f32> = b.finalize().unwrap();
     let start = ["contact_save", "contact_edges", "contact_scan", "contact_scatter", "integrate_symplectic_euler"];
     let pairs = ["contact_moves", "contact_vt", "contact_ee", "contact_args", "contact_prep"];
-    let jacobi = ["contact_jacobi_even", "contact_jacobi_odd"].repeat(8);
     let end = ["contact_friction", "contact_apply"];
-    let one = [&start[..], &pairs[..], &jacobi[..], &end[..]].concat();
-    assert_eq!(run(&m, Integrator::SymplecticEuler), one.repeat(2));
+    let with = |jacobi: &[&'static str]| [&start[..], &pairs[..], jacobi, &end[..]].concat().repeat(2);
+    assert_eq!(run(&m, Integrator::SymplecticEuler), with(&["contact_jacobi_fused"]));
+    let config = GpuConfig { contact_fused_pairs: 0, ..Default::default() };
+    let mut g = GpuSolver::new(ctx.device.clone(), ctx.queue.clone(), &m, config).unwrap();
+    g.run(&m, 1e-5, 2).unwrap();
+    let mut p = g.passes().to_vec();
+    p.pop();
+    assert_eq!(p, with(&["contact_jacobi_even", "contact_jacobi_odd"].repeat(8)));
     // A state that blew up is reported (the finite check of the last state).
     let m: Model<f32> = scenes::benchmark_cloth(8).unwrap().finalize().unwrap();
     let mut g = solver(&ctx, &m, Integrator::SymplecticEuler);

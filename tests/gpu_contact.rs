@@ -133,6 +133,14 @@ fn contact_trajectories_match_the_cpu_on_the_balloons_scene() {
         s.particle_q.iter().chain(&s.particle_qd).map(|v| v.to_array().map(f32::to_bits)).collect::<Vec<_>>()
     };
     assert!(bits(&again) == bits(&s), "two GPU runs from one state differ");
+    // One dispatch per Jacobi iteration gives the same bits as all of them in one workgroup (the default here).
+    let config = GpuConfig { contact_fused_pairs: 0, ..Default::default() };
+    let mut per = GpuSolver::new(ctx.device.clone(), ctx.queue.clone(), m, config).unwrap();
+    per.upload_state(&start).unwrap();
+    per.run(m, dt, 600).unwrap();
+    let mut split = start.clone();
+    per.read_state(&mut split).unwrap();
+    assert!(bits(&split) == bits(&s), "one dispatch per Jacobi iteration and one for all differ");
 }
 
 /// Contact after a fracture on the GPU path: a breakable ball in contact falls onto another resting on the ground

@@ -30,7 +30,7 @@ pub struct Params {
     pub misc: [u32; 4],
     /// Contact: largest thickness \[m\], grid cell \[m\], fixed-point units per m/s, 0.
     pub contact_f: [f32; 4],
-    /// Contact: edges, buckets per grid less one (a power of two less one), pair capacity, 0.
+    /// Contact: edges, buckets per grid less one (a power of two less one), pair capacity, Jacobi iterations (even).
     pub contact_n: [u32; 4],
 }
 
@@ -352,7 +352,7 @@ impl Packed {
 }
 
 /// The uniform for `m`; `rows` is the number of partial-sum rows of the triangle dispatch.
-pub(crate) fn params(m: &Model<f32>, p: &Packed, rows: u32, capacity: u32, pairs: u32) -> Params {
+pub(crate) fn params(m: &Model<f32>, p: &Packed, rows: u32, capacity: u32, pairs: u32, iterations: u32) -> Params {
     let g = m.gravity.to_vec3();
     let projected = if m.damping_model == DampingModel::Projected { 1.0 } else { 0.0 };
     let surface = m.has_pressure() || m.has_wind();
@@ -371,7 +371,7 @@ pub(crate) fn params(m: &Model<f32>, p: &Packed, rows: u32, capacity: u32, pairs
         wind_p,
         misc: [capacity, surface as u32, (p.n_caps > 0) as u32, 0],
         contact_f: [p.contact.h_max, p.contact.cell, CONTACT_FIXED, 0.0],
-        contact_n: [p.contact.edges.len() as u32, p.contact.buckets() as u32 - 1, pairs, 0],
+        contact_n: [p.contact.edges.len() as u32, p.contact.buckets() as u32 - 1, pairs, iterations],
     }
 }
 

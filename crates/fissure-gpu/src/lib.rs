@@ -61,7 +61,7 @@ pub const SHADERS: [(&str, &str); 5] = [
 /// than 8 storage buffers, WebGPU's default `maxStorageBuffersPerShaderStage` (what a browser grants without
 /// asking): one layout with all 19 would need a device that allows 19. `tests/wgsl.rs` checks the table against
 /// what naga finds each entry point using.
-pub const KERNEL_BINDINGS: [(&str, &[u32]); 27] = [
+pub const KERNEL_BINDINGS: [(&str, &[u32]); 28] = [
     ("integrate_symplectic_euler", &FORCE_GATHER),
     ("integrate_verlet_first", &FORCE_GATHER),
     ("integrate_verlet_second", &FORCE_GATHER),
@@ -87,6 +87,7 @@ pub const KERNEL_BINDINGS: [(&str, &[u32]); 27] = [
     ("contact_prep", &[25, 26, 27]),
     ("contact_jacobi_even", &CONTACT_IMPULSE),
     ("contact_jacobi_odd", &CONTACT_IMPULSE),
+    ("contact_jacobi_fused", &CONTACT_IMPULSE),
     ("contact_friction", &CONTACT_IMPULSE),
     ("contact_apply", &[2, 3, 23, 26, 27]),
 ];

@@ -31,9 +31,14 @@ impl GpuSolver {
         self.dispatch(pass, k!("contact_args"), dst, clock, (1, 1));
         self.dispatch_pairs(pass, k!("contact_prep"), dst, clock);
         // An even count: the friction pass reads the totals the last (odd) iteration completed.
-        for it in 0..self.config.contact_iterations.next_multiple_of(2) {
-            let k = if it % 2 == 0 { k!("contact_jacobi_even") } else { k!("contact_jacobi_odd") };
-            self.dispatch_pairs(pass, k, dst, clock);
+        let fused = self.config.contact_fused_pairs as usize;
+        if fused > 0 && self.contact_stats.near <= fused {
+            self.dispatch(pass, k!("contact_jacobi_fused"), dst, clock, (1, 1));
+        } else {
+            for it in 0..self.config.contact_iterations.next_multiple_of(2) {
+                let k = if it % 2 == 0 { k!("contact_jacobi_even") } else { k!("contact_jacobi_odd") };
+                self.dispatch_pairs(pass, k, dst, clock);
+            }
         }
         self.dispatch_pairs(pass, k!("contact_friction"), dst, clock);
         self.dispatch(pass, k!("contact_apply"), dst, clock, np);

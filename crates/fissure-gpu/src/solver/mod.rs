@@ -12,7 +12,7 @@
 //! | `integrate_symplectic_euler` or `integrate_verlet_first` + `integrate_verlet_second` | always |
 //! | `collide` | colliders |
 //! | `contact_save`, `contact_edges`, `contact_scan`, `contact_scatter` (before the integrator) | contact |
-//! | `contact_moves`, `contact_vt`, `contact_ee`, `contact_args`, `contact_prep`, `contact_iterations` × `contact_jacobi_even`/`_odd`, `contact_friction`, `contact_apply` | contact |
+//! | `contact_moves`, `contact_vt`, `contact_ee`, `contact_args`, `contact_prep`, `contact_jacobi_fused` (few pairs) or `contact_iterations` × `contact_jacobi_even`/`_odd`, `contact_friction`, `contact_apply` | contact |
 //! | `strain_check` / `surface_pressure` + `load_check` | breakable springs / vertices (the pressure pass: gas) |
 //! | `finite_check` | once per submission, with `check_finite` |
 //!
@@ -54,9 +54,12 @@ pub struct GpuConfig {
     /// Contact pairs one substep can hold; 0 (default): 4 per particle in contact plus 1,024. A substep that
     /// finds more fails the run with [`GpuError::ContactCapacity`].
     pub contact_capacity: u32,
-    /// Jacobi iterations of the contact impulses per substep, rounded up to an even number (one dispatch each).
-    /// Default 16.
+    /// Jacobi iterations of the contact impulses per substep, rounded up to an even number. Default 16.
     pub contact_iterations: u32,
+    /// Pairs up to which a submission runs all Jacobi iterations of a substep in one dispatch (one workgroup,
+    /// `contact_jacobi_fused`) instead of one dispatch each, judged by the pairs the last submission's last substep
+    /// had. Both give the same bits; the choice is one of speed only. Default 1,024; 0: one dispatch per iteration.
+    pub contact_fused_pairs: u32,
 }
 
 impl Default for GpuConfig {
@@ -68,6 +71,7 @@ impl Default for GpuConfig {
             sdf_cells: 64,
             contact_capacity: 0,
             contact_iterations: 16,
+            contact_fused_pairs: 1024,
         }
     }
 }
@@ -377,7 +381,9 @@ impl GpuSolver {
     fn write_params(&mut self, m: &Model<f32>) {
         let (gx, gy) = groups(m.tri_count());
         let pairs = self.scratch.sized[7] as u32;
-        self.params_host = layout::params(m, &self.packed, gx * gy, self.config.candidate_capacity.max(1), pairs);
+        let iterations = self.config.contact_iterations.next_multiple_of(2);
+        let capacity = self.config.candidate_capacity.max(1);
+        self.params_host = layout::params(m, &self.packed, gx * gy, capacity, pairs, iterations);
         self.queue.write_buffer(&self.params, 0, bytemuck::bytes_of(&self.params_host));
     }
 
