@@ -3,7 +3,9 @@
 For each of the three scenes (fracture, ball_drop, cloth_wind) the page must run 60 simulated frames on WebGPU,
 show the body (the native frame checks' pixel statistics, computed on the canvas's pixels) and report its frame
 rate and adapter. On the fracture scene a scripted right click on the ball must puncture it (fracture events)
-and its gas volume must fall. On the ball drop, the positions after 600 steps read back from the page must match
+and the ball must lose gas through the hole (its `nRT` falls). Its volume is reported, not checked: half a second
+after the click the ball is bouncing off the obstacles, and its volume swings by ±2% with the impacts, more than
+the leak changes it in 30 frames (`tests/gpu.rs` checks the shrinking over a longer run). On the ball drop, the positions after 600 steps read back from the page must match
 the native GPU backend's (`examples/scene_positions.rs`, lavapipe) within the parity tolerance of
 `tests/gpu.rs`: RMS difference below 1e-4 of the scene's size.
 
@@ -158,10 +160,11 @@ def main():
                 page.evaluate("() => { window.fissure.paused = false; }")
                 wait_for(page, frames_done(page, FRAMES), 900, f"{scene}: {FRAMES} frames")
                 after = stats(page)
-                if not after["volume"] < at_puncture["volume"]:
-                    fail(f"{scene}: gas volume {at_puncture['volume']:.5f} m^3 at the puncture, "
-                         f"{after['volume']:.5f} m^3 {FRAMES - 30} frames later: it did not fall")
+                if not after["gas"] < at_puncture["gas"]:
+                    fail(f"{scene}: gas nRT {at_puncture['gas']:.4f} J at the puncture, "
+                         f"{after['gas']:.4f} J {FRAMES - 30} frames later: the ball did not leak")
                 results[scene] = {"events_before": before["events"], "puncture_events": punctured,
+                                  "gas_at_puncture": at_puncture["gas"], "gas_after": after["gas"],
                                   "volume_at_puncture": at_puncture["volume"], "volume_after": after["volume"]}
             else:
                 wait_for(page, frames_done(page, FRAMES), 900, f"{scene}: {FRAMES} frames")

@@ -403,15 +403,15 @@ impl Sim {
     }
 
     /// What the page shows and the test reads, as JSON: scene, adapter, simulated time, frames, fps, fracture
-    /// events, pieces, gas volume now and at the start, simulation time per frame, the step, substeps the contact pass ran
-    /// and the pairs it found within reach (summed over them).
+    /// events, pieces, gas volume now and at the start, the gas (`nRT` \[J\], summed over the gas bodies), simulation
+    /// time per frame, the step, substeps the contact pass ran and the pairs it found within reach (summed over them).
     pub fn stats(&self) -> Result<String, JsValue> {
         let s = self.inner()?;
         let w = &s.world;
         let contact = w.gpu_solver().map(|g| g.contact_stats()).unwrap_or_default();
         let esc = |t: &str| t.replace('\\', "\\\\").replace('"', "\\\"");
         Ok(format!(
-            "{{\"scene\":\"{}\",\"title\":\"{}\",\"adapter\":\"{}\",\"time\":{},\"frames\":{},\"fps\":{},\"events\":{},\"pieces\":{},\"particles\":{},\"volume\":{},\"volume0\":{},\"sim_ms\":{},\"dt\":{},\"contact_steps\":{},\"contact_pairs\":{},\"notes\":[{}]}}",
+            "{{\"scene\":\"{}\",\"title\":\"{}\",\"adapter\":\"{}\",\"time\":{},\"frames\":{},\"fps\":{},\"events\":{},\"pieces\":{},\"particles\":{},\"volume\":{},\"volume0\":{},\"gas\":{},\"sim_ms\":{},\"dt\":{},\"contact_steps\":{},\"contact_pairs\":{},\"notes\":[{}]}}",
             esc(&s.name),
             esc(&s.title),
             esc(&s.adapter),
@@ -423,6 +423,7 @@ impl Sim {
             w.model.particle_count(),
             gas_volume(w),
             s.volume0,
+            w.model.body_gas_amount.iter().map(|&g| g as f64).sum::<f64>(),
             s.sim_ms,
             s.dt,
             contact.steps,
