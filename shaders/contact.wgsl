@@ -5,8 +5,9 @@
 //    vertices, one of the midpoints of the contact edges;
 //  - after the integrator and the colliders (`contact_moves` … `contact_apply`): the largest move sets the reach
 //    `r = h_max + d_max / GAMMA`; every vertex–triangle and edge–edge pair closer than `r` at the start is listed
-//    (`contact_vt`, `contact_ee`); Jacobi iterations solve the normal impulses (one dispatch each, alternating
-//    between two sets of totals), then one pass of Coulomb friction;
+//    (`contact_vt`, `contact_ee`, 8 invocations per element); Jacobi iterations solve the normal impulses
+//    (alternating between two sets of totals: all in one workgroup while the pairs are few, else one dispatch
+//    each), then one pass of Coulomb friction;
 //    each particle's move is capped by the displacement bound (`GAMMA` times its nearest pair's gap), which rules
 //    out crossings whatever the impulses did.
 // As on the CPU, an element whose box meets no other body's box (and whose body does not collide with itself)

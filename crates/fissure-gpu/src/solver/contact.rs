@@ -2,10 +2,10 @@
 //! `fissure_core::contact`'s; the kernels' docs say how the GPU solves it.
 
 use super::scratch::PAIR_BYTES;
+use super::*;
 
 /// Invocations per element in the pair searches: `LANES` in `shaders/contact.wgsl`.
 const SEARCH_LANES: usize = 8;
-use super::*;
 
 impl GpuSolver {
     /// The contact pass's first half, on the state at the start of the substep: positions saved, both grids built.
