@@ -90,3 +90,18 @@ impl GpuSolver {
         Ok(words.chunks_exact(PAIR_BYTES / 4).map(|w| ([w[0], w[1], w[2], w[3]], f32::from_bits(w[11]))).collect())
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::SEARCH_LANES;
+
+    /// The dispatch sizes follow the shader's lane count: with fewer here than there, elements would go unsearched.
+    #[test]
+    fn search_lanes_are_the_shaders() {
+        let (_, src) = crate::SHADERS.iter().find(|(n, _)| *n == "contact.wgsl").unwrap();
+        assert!(
+            src.contains(&format!("const LANES: u32 = {SEARCH_LANES}u;")),
+            "contact.wgsl's LANES is not {SEARCH_LANES}"
+        );
+    }
+}
