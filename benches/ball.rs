@@ -98,6 +98,8 @@ fn bench(c: &mut Criterion) {
             let mut wb = World::new(ball(sub, false, true), SolverConfig::default());
             let intact = (0..3).map(|_| time_world(&mut wb, steps)).fold(f64::INFINITY, f64::min);
             println!("{}", wb.timers());
+            let size = |w: &World<f32>| [w.model.particle_count(), w.model.spring_count(), w.model.tri_count()];
+            let before = size(&wb);
             let (mut done, mut v) = (0, 0);
             while done < 100 && v < n {
                 done += (!wb.break_core(v).unwrap().is_empty()) as usize;
@@ -108,6 +110,18 @@ fn bench(c: &mut Criterion) {
             println!(
                 "  breakable ball: intact {intact:.1} µs/step, after {done} core splits {broken:.1} µs/step ({:.2}x)",
                 broken / intact
+            );
+            // The floor of that ratio: a step touches every particle, spring and triangle, so the work it must
+            // do grows with the model, and the time per element is what the split body's layout decides.
+            let after = size(&wb);
+            let growth = [0, 1, 2].map(|k| after[k] as f64 / before[k] as f64);
+            println!(
+                "  the model grew {:.2}x in particles, {:.2}x in springs, {:.2}x in triangles: time per spring \
+                 {:.2}x the intact ball's",
+                growth[0],
+                growth[1],
+                growth[2],
+                broken / intact / growth[1]
             );
         }
         let model = ball(sub, false, false);

@@ -193,6 +193,7 @@ impl<R: Real> World<R> {
     /// `n` steps of `h`, then the fracture pass once `fracture_every` steps have passed since the last one (the
     /// seed's steps 4 and 5), with the time they covered.
     async fn batch(&mut self, h: f64, n: usize, out: &mut Advance) -> Result<(), StepError> {
+        self.solver.set_instant_trigger(matches!(self.fracture.config.trigger, crate::Trigger::Instant));
         self.solver.advance_async(&self.model, &mut self.state, h, n).await?;
         out.steps += n;
         if !self.fracture_due() {

@@ -591,3 +591,90 @@ fn run_kernel_measures_every_strain_once_on_any_thread_count() {
     let (one, three) = (run(1), run(3));
     assert_eq!(one, three);
 }
+
+/// Sparse strains (an instantaneous trigger: `Solver::set_instant_trigger`): the solver stores only the spans
+/// of springs where a strain may pass the smallest limit, on both kernels (a ball: per spring; a grid cloth: the
+/// run kernel). The spans hold the same bits as storing every strain, every spring past its limit lies in one,
+/// they are the same on 1 and 3 threads, and the fracture pass breaks the same springs from them as from every
+/// strain. With every strain far from its limit nothing is stored and the solver rules out candidates (`World`
+/// then skips the fracture pass).
+#[test]
+fn sparse_strains_find_what_every_strain_finds() {
+    type Run = (Vec<f32>, Option<Vec<[u32; 2]>>, bool, Model<f32>, State<f32>);
+    for grid in [false, true] {
+        let dt = if grid { 2e-4 } else { 1e-4 };
+        let run = |threads: usize, limit: f64, sparse: bool| -> Run {
+            let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
+            pool.install(|| {
+                let breakable = Some(Breakable { strain_limit: limit, ..Default::default() });
+                let mut b = ModelBuilder::new();
+                if grid {
+                    let opts = common::bench_cloth_options(vec![0, 127], breakable);
+                    b.add_cloth_grid(128, 128, 0.01, |p| DVec3::new(p.x, 1.0, p.y), &opts).unwrap();
+                } else {
+                    let opts =
+                        SoftBodyOptions { gas: Gas::Pressure(2000.0), fracture: breakable, ..Default::default() };
+                    b.add_soft_body(&Mesh::icosphere(0.25, 4), &opts).unwrap();
+                }
+                let m: Model<f32> = b.finalize().unwrap();
+                assert_eq!(m.spring_runs.is_empty(), !grid);
+                let mut s = m.state();
+                let mut solver = CpuSolver::<f32>::default();
+                solver.set_instant_trigger(sparse);
+                // The cloth sags under gravity over 40 ms; the ball's gas stretches it at once.
+                for _ in 0..if grid { 200 } else { 60 } {
+                    solver.step(&m, &mut s, dt).unwrap();
+                }
+                let x = solver.measures(&m).expect("a breakable model is measured");
+                let out = (x.strain.to_vec(), x.strain_spans.map(<[_]>::to_vec));
+                (out.0, out.1, solver.may_have_fracture_candidates(), m, s)
+            })
+        };
+        // Every strain, far from the limit: the strains' spread picks a limit that some 0.5% of springs pass.
+        let (all, none, may, _, _) = run(1, 10.0, false);
+        assert!(none.is_none() && may);
+        let mut sorted: Vec<f32> = all.clone();
+        sorted.sort_by(f32::total_cmp);
+        let limit = sorted[sorted.len() * 995 / 1000] as f64;
+        assert!(limit > 1e-4, "grid {grid}: the body stretches (limit {limit})");
+        let (far, spans, may, _, _) = run(1, 10.0, true);
+        assert_eq!(spans.as_deref(), Some(&[][..]), "grid {grid}: nothing near the limit, nothing stored");
+        assert!(!may, "grid {grid}: no candidate possible");
+        assert_eq!(far.len(), all.len());
+
+        let (full, _, _, mut m_full, mut s_full) = run(1, limit, false);
+        let (sparse, spans, may, mut m_sparse, mut s_sparse) = run(1, limit, true);
+        assert_eq!(s_full.particle_q, s_sparse.particle_q, "measuring does not change the physics");
+        let spans = spans.expect("sparse");
+        assert!(may);
+        assert!(spans.windows(2).all(|w| w[0][1] <= w[1][0]), "spans in order, disjoint");
+        let stored: usize = spans.iter().map(|[a, b]| (b - a) as usize).sum();
+        assert!(stored < full.len() / 4, "grid {grid}: {stored} of {} strains stored", full.len());
+        let inside = |k: usize| spans.iter().any(|&[a, b]| (a as usize..b as usize).contains(&k));
+        let mut passed = 0;
+        for (k, &e) in full.iter().enumerate() {
+            if inside(k) {
+                assert_eq!(sparse[k].to_bits(), e.to_bits(), "grid {grid}: spring {k}");
+            }
+            if e as f64 > limit {
+                assert!(inside(k), "grid {grid}: spring {k} passes its limit outside every span");
+                passed += 1;
+            }
+        }
+        assert!(passed > 0);
+        assert_eq!(run(3, limit, true).1, Some(spans.clone()), "grid {grid}: the same spans on 3 threads");
+
+        // The fracture pass on each solver's measures breaks the same springs.
+        let deltas =
+            [(&mut m_full, &mut s_full, &full, None), (&mut m_sparse, &mut s_sparse, &sparse, Some(&spans[..]))].map(
+                |(m, s, strain, strain_spans)| {
+                    let load = vec![0.0; m.particle_count()];
+                    let volume = m.body_volumes(s).iter().map(|&v| v as f32).collect::<Vec<_>>();
+                    let x = Measures { strain, strain_spans, load: &load, volume: &volume };
+                    Fracture::<f32>::default().apply_measured(m, s, dt, Some(x))
+                },
+            );
+        assert!(!deltas[0].events.is_empty(), "grid {grid}: springs break");
+        assert_eq!(deltas[0], deltas[1], "grid {grid}");
+    }
+}

@@ -61,6 +61,16 @@ pub(crate) struct ForceScratch<R: Real> {
     pub loads: bool,
     /// Whether `strain`, `spring_el`, `load` hold the start of the last (sub)step.
     pub measured: bool,
+    /// Measuring evaluations store strains sparsely (see `StrainSink`): the fracture trigger is instantaneous.
+    pub sparse_strains: bool,
+    /// `(1 + the smallest finite strain limit of a live spring)(1 - 1e-5)`: a spring longer than its rest length
+    /// times this may pass its limit (infinite when none has a limit).
+    pub strain_over: R,
+    /// Whether the last measuring evaluation was sparse…
+    pub strain_sparse: bool,
+    /// …and then the ranges `[start, end)` of springs whose strains it stored, in order: every other spring's
+    /// strain was within its limit.
+    pub strain_spans: Vec<[u32; 2]>,
 }
 
 impl<R: Real> ForceScratch<R> {
@@ -99,6 +109,11 @@ impl<R: Real> ForceScratch<R> {
         self.measuring = m.has_fracture() && !(self.runs && self.loads);
         let (ns, np) = if self.measuring { (m.spring_count(), m.particle_count()) } else { (0, 0) };
         self.strain.resize(ns, R::ZERO);
+        let floor = (m.spring_strain_limit.iter().zip(&m.spring_kind))
+            .filter(|(l, k)| l.is_finite() && **k != crate::model::SpringKind::Broken)
+            .fold(f64::INFINITY, |a, (l, _)| a.min(l.to_f64()));
+        self.strain_over = R::from_f64((1.0 + floor) * (1.0 - 1e-5));
+        self.strain_spans.clear();
         self.spring_el.resize(if self.loads { ns } else { 0 }, R::V::ZERO);
         self.load.resize(np, R::ZERO);
         if !self.loads {

@@ -30,9 +30,10 @@ impl<R: Real> ForceScratch<R> {
     /// kernel only: see `ForceScratch::resize`).
     pub fn springs_measured(&mut self, m: &Model<R>, q: &[R::V], qd: &[R::V]) {
         debug_assert!(self.measuring);
+        let over = self.sparse_strains.then_some(self.strain_over);
+        let sink = StrainSink::new(&mut self.strain, over, std::mem::take(&mut self.strain_spans));
         if self.runs {
             // The run kernel measures strains alone (a model with load limits is not measured on it).
-            let sink = StrainSink::new(&mut self.strain);
             match m.damping_model {
                 DampingModel::Projected => {
                     run_pass::<R, true>(m, &self.run_blocks, q, qd, &mut self.particle_spring, Some(&sink))
@@ -41,14 +42,16 @@ impl<R: Real> ForceScratch<R> {
                     run_pass::<R, false>(m, &self.run_blocks, q, qd, &mut self.particle_spring, Some(&sink))
                 }
             }
-            return;
+        } else {
+            // Empty without load limits: the strains alone.
+            let (out, el) = (&mut self.spring_f, &mut self.spring_el);
+            match m.damping_model {
+                DampingModel::Projected => spring_pass_measured::<R, true>(m, q, qd, out, &sink, el),
+                DampingModel::Unprojected => spring_pass_measured::<R, false>(m, q, qd, out, &sink, el),
+            }
         }
-        // Empty without load limits: the strains alone.
-        let (out, strain, el) = (&mut self.spring_f, &mut self.strain, &mut self.spring_el);
-        match m.damping_model {
-            DampingModel::Projected => spring_pass_measured::<R, true>(m, q, qd, out, strain, el),
-            DampingModel::Unprojected => spring_pass_measured::<R, false>(m, q, qd, out, strain, el),
-        }
+        self.strain_spans = sink.finish();
+        self.strain_sparse = over.is_some();
     }
 }
 
@@ -135,7 +138,7 @@ pub(crate) fn implicit_coefficients<R: Real>(d: R::V, rest: R, ks: R, kd: R, h: 
 /// the results are scattered back. Same maths lane by lane, same bits as one spring at a time.
 fn spring_pass<R: Real, const PROJECTED: bool>(m: &Model<R>, q: &[R::V], qd: &[R::V], out: &mut [R::V]) {
     par::chunks(out, |start, chunk| {
-        spring_chunk_dispatch::<R, PROJECTED, false>(m, q, qd, start, chunk, &mut [], &mut [])
+        spring_chunk_dispatch::<R, PROJECTED, false>(m, q, qd, start, chunk, None, &mut [])
     });
 }
 
@@ -144,19 +147,19 @@ fn spring_pass_measured<R: Real, const PROJECTED: bool>(
     q: &[R::V],
     qd: &[R::V],
     out: &mut [R::V],
-    strain_out: &mut [R],
+    strain: &StrainSink<'_, R>,
     el_out: &mut [R::V],
 ) {
     let n = out.len();
     if el_out.is_empty() {
         // No load limit: the strains alone.
-        par::chunks2(out, &mut strain_out[..n], |start, chunk, strains| {
-            spring_chunk_dispatch::<R, PROJECTED, true>(m, q, qd, start, chunk, strains, &mut [])
+        par::chunks(out, |start, chunk| {
+            spring_chunk_dispatch::<R, PROJECTED, true>(m, q, qd, start, chunk, Some(strain), &mut [])
         });
         return;
     }
-    par::chunks3(out, &mut strain_out[..n], &mut el_out[..n], |start, chunk, strains, els| {
-        spring_chunk_dispatch::<R, PROJECTED, true>(m, q, qd, start, chunk, strains, els)
+    par::chunks2(out, &mut el_out[..n], |start, chunk, els| {
+        spring_chunk_dispatch::<R, PROJECTED, true>(m, q, qd, start, chunk, Some(strain), els)
     });
 }
 
@@ -169,18 +172,18 @@ fn spring_chunk_dispatch<R: Real, const PROJECTED: bool, const MEASURE: bool>(
     qd: &[R::V],
     start: usize,
     out: &mut [R::V],
-    strains: &mut [R],
+    strain: Option<&StrainSink<'_, R>>,
     els: &mut [R::V],
 ) {
     #[cfg(target_arch = "x86_64")]
     {
         if std::arch::is_x86_feature_detected!("avx2") {
             // SAFETY: the CPU supports AVX2, checked just above.
-            unsafe { spring_chunk_avx2::<R, PROJECTED, MEASURE>(m, q, qd, start, out, strains, els) };
+            unsafe { spring_chunk_avx2::<R, PROJECTED, MEASURE>(m, q, qd, start, out, strain, els) };
             return;
         }
     }
-    spring_chunk::<R, PROJECTED, MEASURE>(m, q, qd, start, out, strains, els)
+    spring_chunk::<R, PROJECTED, MEASURE>(m, q, qd, start, out, strain, els)
 }
 
 #[cfg(target_arch = "x86_64")]
@@ -191,10 +194,10 @@ fn spring_chunk_avx2<R: Real, const PROJECTED: bool, const MEASURE: bool>(
     qd: &[R::V],
     start: usize,
     out: &mut [R::V],
-    strains: &mut [R],
+    strain: Option<&StrainSink<'_, R>>,
     els: &mut [R::V],
 ) {
-    spring_chunk::<R, PROJECTED, MEASURE>(m, q, qd, start, out, strains, els)
+    spring_chunk::<R, PROJECTED, MEASURE>(m, q, qd, start, out, strain, els)
 }
 
 /// Springs `start .. start + out.len()`, a span at a time (see [`spring_pass`]).
@@ -205,7 +208,7 @@ fn spring_chunk<R: Real, const PROJECTED: bool, const MEASURE: bool>(
     qd: &[R::V],
     start: usize,
     out: &mut [R::V],
-    strains: &mut [R],
+    strain: Option<&StrainSink<'_, R>>,
     els: &mut [R::V],
 ) {
     let mut t = SpanScratch::<R>::new();
@@ -234,13 +237,31 @@ fn spring_chunk<R: Real, const PROJECTED: bool, const MEASURE: bool>(
             let ([dx, dy, dz], [wx, wy, wz], [r, s, d]) = (&t.d, &t.w, &t.p);
             let [fx, fy, fz] = &mut t.f;
             let [ex, ey, ez] = &mut e;
-            for k in 0..SPAN {
-                let (f, el, len) =
-                    force_parts::<R, PROJECTED>([dx[k], dy[k], dz[k]], [wx[k], wy[k], wz[k]], r[k], s[k], d[k]);
-                [fx[k], fy[k], fz[k]] = f;
-                if MEASURE {
+            // Three loops, each without a branch: the elastic pulls only for a model with load limits.
+            if MEASURE && !els.is_empty() {
+                for k in 0..SPAN {
+                    let (f, el, len) =
+                        force_parts::<R, PROJECTED>([dx[k], dy[k], dz[k]], [wx[k], wy[k], wz[k]], r[k], s[k], d[k]);
+                    [fx[k], fy[k], fz[k]] = f;
                     [ex[k], ey[k], ez[k]] = el;
-                    l[k] = strain(len, r[k]);
+                    l[k] = len;
+                }
+            } else if MEASURE {
+                for k in 0..SPAN {
+                    let (f, _, len) =
+                        force_parts::<R, PROJECTED>([dx[k], dy[k], dz[k]], [wx[k], wy[k], wz[k]], r[k], s[k], d[k]);
+                    [fx[k], fy[k], fz[k]] = f;
+                    l[k] = len;
+                }
+            } else {
+                for k in 0..SPAN {
+                    [fx[k], fy[k], fz[k]] = force_components::<R, PROJECTED>(
+                        [dx[k], dy[k], dz[k]],
+                        [wx[k], wy[k], wz[k]],
+                        r[k],
+                        s[k],
+                        d[k],
+                    );
                 }
             }
         }
@@ -248,7 +269,10 @@ fn spring_chunk<R: Real, const PROJECTED: bool, const MEASURE: bool>(
             out[k0 + k] = R::V::new(t.f[0][k], t.f[1][k], t.f[2][k]);
         }
         if MEASURE {
-            strains[k0..k0 + n].copy_from_slice(&l[..n]);
+            if let Some(sink) = strain {
+                // SAFETY: springs `s0 .. s0 + n` are this chunk's alone (`par::chunks` partitions them).
+                unsafe { sink.store(s0, &l[..n], rest) };
+            }
             if !els.is_empty() {
                 for k in 0..n {
                     els[k0 + k] = R::V::new(e[0][k], e[1][k], e[2][k]);
@@ -271,7 +295,7 @@ struct SpanScratch<R: Real> {
     w: [[R; SPAN]; 3],
     p: [[R; SPAN]; 3],
     f: [[R; SPAN]; 3],
-    /// Each lane's strain (measuring spans only).
+    /// Each lane's length (measuring spans only).
     l: [R; SPAN],
 }
 
@@ -287,7 +311,8 @@ impl<R: Real> SpanScratch<R> {
 /// loops over `[R; SPAN]` that LLVM turns into packed code, square roots and divisions included), and the
 /// result is transposed back. Lanes past `out.len()` up to a multiple of [`LANES`] hold stale values from an
 /// earlier span: computed, never used. The maths is [`force_components`], lane by lane; `measure`: also each
-/// lane's strain, into `t.l` (from the same length: [`force_parts`]).
+/// lane's length, into `t.l` (from [`force_parts`]: the strain is formed from it only where it is stored, see
+/// [`StrainSink::store`]).
 #[allow(clippy::too_many_arguments)]
 #[inline(always)]
 fn span_forces<R: Real, const PROJECTED: bool>(
@@ -329,7 +354,7 @@ fn span_forces<R: Real, const PROJECTED: bool>(
             let (f, _, len) =
                 force_parts::<R, PROJECTED>([dx[k], dy[k], dz[k]], [wx[k], wy[k], wz[k]], r[k], s[k], d[k]);
             [fx[k], fy[k], fz[k]] = f;
-            l[k] = strain(len, r[k]);
+            l[k] = len;
         }
     } else {
         for k in 0..lanes {
@@ -363,36 +388,73 @@ fn run_pass<R: Real, const PROJECTED: bool>(
     });
 }
 
-/// The springs' strains written by the run kernel's blocks, which run in parallel: each spring's by the one block
-/// that holds its end 0 (blocks partition the particles), so no two writes meet. A grid cloth's fracture trigger
-/// then reads the strains its step computed instead of a pass of its own (128² cloth, harness `terms`,
-/// 2026-11-24: the fracture stage 98–101 → 10.4–10.5 µs per step, the spring pass 18–24 µs dearer; what
-/// fracture adds to the step 0.91–1.01 → 0.16–0.26× the spring pass).
+/// Where a measuring spring pass puts the springs' strains. Its kernels run in parallel, each on springs no
+/// other touches: the run kernel's blocks store the springs whose end 0 they hold (blocks partition the
+/// particles), the per-spring kernel's chunks their own. A grid cloth's fracture trigger then reads the strains
+/// its step computed instead of a pass of its own (128² cloth, harness `terms`, 2026-11-24: the fracture stage
+/// 98–101 → 10.4–10.5 µs per step, the spring pass 18–24 µs dearer).
+///
+/// Sparse (`over`: an instantaneous trigger, which reads only the strains past a limit): a span of springs is
+/// stored only where some spring's length passes `L0 · over` (`over` = `(1 + the smallest limit)(1 - 1e-5)`,
+/// a margin far above the rounding of the strain `(l - L0) / L0`, so no spring that passes its limit is
+/// missed), and its range is listed. Storing every strain was what fracture added to a step that breaks
+/// nothing: 0.50× the spring pass on the 128² cloth, 0.80× on the ball (97,026 strains, 388 KB a step, and a
+/// division each; harness `terms`, 2026-11-24).
 pub(crate) struct StrainSink<'a, R> {
     ptr: *mut R,
     len: usize,
+    over: Option<R>,
+    spans: std::sync::Mutex<Vec<[u32; 2]>>,
     _out: std::marker::PhantomData<&'a mut [R]>,
 }
 
-// SAFETY: the sink only writes, through `write`, to ranges its callers keep disjoint across threads (above).
+// SAFETY: the sink only writes, through `store`, to ranges its callers keep disjoint across threads (above); the
+// span list is behind a mutex.
 unsafe impl<R: Send> Send for StrainSink<'_, R> {}
 // SAFETY: as for `Send`.
 unsafe impl<R: Send> Sync for StrainSink<'_, R> {}
 
-impl<'a, R: Copy> StrainSink<'a, R> {
-    /// A sink over `out`, borrowed for the sink's life.
-    pub(crate) fn new(out: &'a mut [R]) -> Self {
-        StrainSink { ptr: out.as_mut_ptr(), len: out.len(), _out: std::marker::PhantomData }
+impl<'a, R: Real> StrainSink<'a, R> {
+    /// A sink over `out`, borrowed for the sink's life; `over`: sparse (above), listing into `spans` (cleared).
+    pub(crate) fn new(out: &'a mut [R], over: Option<R>, mut spans: Vec<[u32; 2]>) -> Self {
+        spans.clear();
+        StrainSink {
+            ptr: out.as_mut_ptr(),
+            len: out.len(),
+            over,
+            spans: std::sync::Mutex::new(spans),
+            _out: std::marker::PhantomData,
+        }
     }
 
-    /// `out[at .. at + v.len()] = v`.
+    /// The ranges of springs stored in sparse mode, in spring order (the same list on any thread count).
+    pub(crate) fn finish(self) -> Vec<[u32; 2]> {
+        let mut spans = self.spans.into_inner().unwrap_or_else(|e| e.into_inner());
+        spans.sort_unstable();
+        spans
+    }
+
+    /// The strains of springs `at .. at + len.len()` from their lengths `len` and rest lengths `rest` (at least as
+    /// long): all of them, or in sparse mode only where one may pass a limit.
     ///
     /// # Safety
     /// No other thread writes or reads that range during the sink's life.
-    unsafe fn write(&self, at: usize, v: &[R]) {
-        assert!(at + v.len() <= self.len, "strain write out of range");
+    #[inline(always)]
+    unsafe fn store(&self, at: usize, len: &[R], rest: &[R]) {
+        let n = len.len();
+        let rest = &rest[..n];
+        if let Some(c) = self.over {
+            if !len.iter().zip(rest).fold(false, |any, (&l, &r)| any | (l > r * c)) {
+                return;
+            }
+            self.spans.lock().unwrap_or_else(|e| e.into_inner()).push([at as u32, (at + n) as u32]);
+        }
+        assert!(at + n <= self.len, "strain write out of range");
         // SAFETY: in bounds (asserted); exclusive by the caller's contract.
-        unsafe { std::ptr::copy_nonoverlapping(v.as_ptr(), self.ptr.add(at), v.len()) }
+        let out = unsafe { std::slice::from_raw_parts_mut(self.ptr.add(at), n) };
+        for ((o, &l), &r) in out.iter_mut().zip(len).zip(rest) {
+            *o = strain(l, r);
+        }
     }
 }
 
@@ -540,7 +602,7 @@ fn run_block<R: Real, const PROJECTED: bool>(
                 let (c0, c1) = (k0.max(a0), k1.min(a1));
                 if let Some(out) = strain.filter(|_| c0 < c1) {
                     // SAFETY: these springs' end 0 lies in this block and in no other (see `StrainSink`).
-                    unsafe { out.write(s0 + c0, &scratch.l[c0 - k0..c1 - k0]) };
+                    unsafe { out.store(s0 + c0, &scratch.l[c0 - k0..c1 - k0], &rest[s0 + c0..s0 + c1]) };
                 }
                 if c0 < c1 {
                     let dst = &mut block[i0 + c0 - p0..i0 + c1 - p0];

@@ -325,8 +325,12 @@ impl TopologyDelta {
 /// use the current state.
 #[derive(Clone, Copy, Debug)]
 pub struct Measures<'a, R: Real> {
-    /// Strain `(l - L0) / L0` of each spring.
+    /// Strain `(l - L0) / L0` of each spring (with `strain_spans`, only of the springs listed there).
     pub strain: &'a [R],
+    /// `None`: `strain` holds every spring's. `Some`: the solver stored only these ranges `[start, end)` of
+    /// springs, the spans where some strain might pass its limit; every other spring's strain was within its
+    /// limit. Enough for [`Trigger::Instant`]; [`Trigger::Averaged`] needs every strain and rescans the state.
+    pub strain_spans: Option<&'a [[u32; 2]]>,
     /// Load of each particle with a finite load limit \[N\]: `|Σ elastic spring pulls + pressure shares|`, the
     /// sum [`Fracture::apply`] takes itself.
     pub load: &'a [R],
@@ -436,8 +440,12 @@ impl<R: Real> Fracture<R> {
             return std::mem::take(&mut self.delta);
         }
         let t0 = Instant::now();
+        let instant = matches!(self.config.trigger, Trigger::Instant);
         let measures = measures.filter(|x| {
-            x.strain.len() == m.spring_count() && x.load.len() == m.particle_count() && x.volume.len() == m.body_count()
+            x.strain.len() == m.spring_count()
+                && x.load.len() == m.particle_count()
+                && x.volume.len() == m.body_count()
+                && (instant || x.strain_spans.is_none())
         });
         if let Some(x) = &measures {
             self.volumes.extend(x.volume.iter().map(|v| v.to_f64()));

@@ -93,7 +93,22 @@ impl<R: Real> Fracture<R> {
         let alpha = alpha(self.config.trigger, dt);
         let ns = m.spring_count();
         self.spring_avg.resize(ns, R::ZERO);
-        spring_candidates(m, x.strain, &mut self.spring_avg, alpha, &mut self.candidates);
+        match x.strain_spans {
+            // Instantaneous (`apply_measured` passes sparse measures for no other trigger): only the stored spans
+            // can hold a strain past its limit.
+            Some(spans) => {
+                for &[a, b] in spans {
+                    let (a, b) = (a as usize, b as usize);
+                    let (strain, limits) = (&x.strain[a..b], &m.spring_strain_limit[a..b]);
+                    for (k, (&v, &lim)) in strain.iter().zip(limits).enumerate() {
+                        if lim.is_finite() && v > lim && m.spring_kind[a + k] != SpringKind::Broken {
+                            self.candidates.push(((v / lim).to_f64(), 0, (a + k) as u32));
+                        }
+                    }
+                }
+            }
+            None => spring_candidates(m, x.strain, &mut self.spring_avg, alpha, &mut self.candidates),
+        }
         self.particle_avg.resize(m.particle_count(), R::ZERO);
         particle_candidates(m, x.load, &mut self.particle_avg, alpha, &mut self.candidates);
         self.candidates.sort_by(|a, b| b.0.total_cmp(&a.0).then(a.1.cmp(&b.1)).then(a.2.cmp(&b.2)));

@@ -119,8 +119,10 @@ impl<R: Real> CpuSolver<R> {
         // A model that can break by strain gets its springs' strains from the kernel (see `StrainSink`).
         let measure = std::mem::take(&mut self.measure_next) && self.f.measuring;
         let mut strain = std::mem::take(&mut self.f.strain);
-        let sink = measure.then(|| StrainSink::new(&mut strain));
-        let sink = sink.as_ref();
+        let over = self.f.sparse_strains.then_some(self.f.strain_over);
+        let spans = std::mem::take(&mut self.f.strain_spans);
+        let sink = measure.then(|| StrainSink::new(&mut strain, over, spans));
+        let sink_ref = sink.as_ref();
         // Buffers sized by `ensure_sized`.
         let (q, qd) = (&s.particle_q, &s.particle_qd);
         let f = &self.f;
@@ -132,9 +134,9 @@ impl<R: Real> CpuSolver<R> {
             &mut self.qd_next,
             |p0, fs, qs, vs| {
                 if projected {
-                    run_block_dispatch::<R, true>(m, f.run_blocks.of(p0), q, qd, p0, fs, sink);
+                    run_block_dispatch::<R, true>(m, f.run_blocks.of(p0), q, qd, p0, fs, sink_ref);
                 } else {
-                    run_block_dispatch::<R, false>(m, f.run_blocks.of(p0), q, qd, p0, fs, sink);
+                    run_block_dispatch::<R, false>(m, f.run_blocks.of(p0), q, qd, p0, fs, sink_ref);
                 }
                 if !surface {
                     // No triangle terms: the update over the components, without branches.
@@ -170,6 +172,10 @@ impl<R: Real> CpuSolver<R> {
                 }
             },
         );
+        if let Some(sink) = sink {
+            self.f.strain_spans = sink.finish();
+            self.f.strain_sparse = over.is_some();
+        }
         self.f.strain = strain;
         self.f.measured = measure;
         std::mem::swap(&mut s.particle_q, &mut self.q_next);

@@ -138,10 +138,15 @@ pub trait Solver<R: Real>: Send + Sync {
         state.time
     }
     /// False when the last batch certainly passed no fracture limit (a GPU's kernels flag candidates as they
-    /// step); the fracture pass is then skipped unless a gas body leaks. The CPU cannot tell cheaply: true.
+    /// step; the CPU solver's sparse strains list none on a model without load limits); the fracture pass is
+    /// then skipped unless a gas body leaks. Default: true.
     fn may_have_fracture_candidates(&self) -> bool {
         true
     }
+    /// Whether the fracture pass's trigger is instantaneous ([`crate::fracture::Trigger::Instant`]): it then
+    /// needs only the strains that may pass a limit, and the CPU solver stores just those spans (see
+    /// [`crate::fracture::Measures::strain_spans`]). `World` says so before each batch. Default: nothing to do.
+    fn set_instant_trigger(&mut self, _instant: bool) {}
     /// Brings `state` up to date with the solver's copy (a GPU reads it back). Default: nothing to do.
     fn sync_state(&mut self, _state: &mut State<R>) -> Result<(), StepError> {
         Ok(())
@@ -348,7 +353,12 @@ impl<R: Real> CpuSolver<R> {
             && f.strain.len() == m.spring_count()
             && f.load.len() == m.particle_count()
             && f.body_volume.len() == m.body_count())
-        .then_some(crate::fracture::Measures { strain: &f.strain, load: &f.load, volume: &f.body_volume })
+        .then_some(crate::fracture::Measures {
+            strain: &f.strain,
+            strain_spans: f.strain_sparse.then_some(&f.strain_spans[..]),
+            load: &f.load,
+            volume: &f.body_volume,
+        })
     }
 
     /// The net force on every particle at `state` \[N\] (gravity, springs, pressure, wind; not collisions) into
@@ -517,6 +527,15 @@ impl<R: Real> Solver<R> for CpuSolver<R> {
 
     fn fracture_measures(&self, model: &Model<R>) -> Option<crate::fracture::Measures<'_, R>> {
         self.measures(model)
+    }
+
+    fn may_have_fracture_candidates(&self) -> bool {
+        let f = &self.f;
+        !(f.measured && f.strain_sparse && f.strain_spans.is_empty() && !f.loads)
+    }
+
+    fn set_instant_trigger(&mut self, instant: bool) {
+        self.f.sparse_strains = instant;
     }
 
     fn timers(&self) -> &StageTimers {
