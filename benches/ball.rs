@@ -105,8 +105,17 @@ fn bench(c: &mut Criterion) {
                 done += (!wb.break_core(v).unwrap().is_empty()) as usize;
                 v += 17;
             }
+            // Right after the splits (the first 0.12 s: 200 warm-up steps and 1,000 timed), before the core blocks
+            // thrown out by the gas land: the split model's layout. Then the longer runs, where the landed blocks
+            // rest on the ground and collide at every step.
+            let first = time_world(&mut wb, steps.min(1000));
+            let collide_first = wb.timers().time(Stage::Collide).as_secs_f64() / steps.min(1000) as f64 * 1e6;
             let broken = (0..3).map(|_| time_world(&mut wb, steps)).fold(f64::INFINITY, f64::min);
             println!("{}", wb.timers());
+            println!(
+                "  right after the splits: {first:.1} µs/step ({:.2}x the intact ball; collide {collide_first:.1} µs)",
+                first / intact
+            );
             println!(
                 "  breakable ball: intact {intact:.1} µs/step, after {done} core splits {broken:.1} µs/step ({:.2}x)",
                 broken / intact
