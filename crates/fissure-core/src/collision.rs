@@ -240,7 +240,7 @@ impl Collider {
                 let n_w = pose.rotation * n;
                 Quick::Plane(n_w, n_w.dot(pose.translation), pose.translation.abs().max_element())
             }
-            Analytic::Ball(r) => Quick::Sphere(pose.translation, r + self.margin),
+            Analytic::Ball(r) => Quick::Sphere(pose.translation, r + self.margin, r),
             _ => Quick::None,
         };
         PreparedCollider { aabb: self.aabb(&pose), pose, shape, quick }
@@ -276,17 +276,16 @@ enum Analytic {
     General,
 }
 
-/// A fast, conservative "certainly no contact" test in world space, done before the exact test in the shape's
-/// local frame. It only skips particles whose world-space distance clears the contact distance by a margin far
-/// above the rounding difference between the two frames (1e-5 relative), so every particle that could touch
-/// still takes the exact path and results are bit-identical with or without it. It saves the inverse pose
-/// transform for the particles far from a wall or the floor (most of them, every step).
+/// The plane and the ball in world space, where [`PreparedCollider::resolve`] tests and projects them in closed
+/// form (no pose transforms; until 2026-11-24 they went through the local frame like the other shapes, with
+/// this as a conservative quick reject before it). The block test [`PreparedCollider::may_touch_box`] keeps
+/// tolerances far above rounding, so skipping a block never drops a contact.
 #[derive(Clone, Copy, Debug)]
 enum Quick {
     /// World normal `n`, offset `n·t`, and `|t|∞` for the tolerance.
     Plane(Vec3, f32, f32),
-    /// World centre and radius plus margin.
-    Sphere(Vec3, f32),
+    /// World centre, radius plus margin, and radius.
+    Sphere(Vec3, f32, f32),
     None,
 }
 
@@ -377,7 +376,7 @@ impl PreparedCollider {
                 let tol = 1e-5 * (far + t + 1.0) + 1e-6 * (far + d.abs() + 1.0);
                 nearest - d <= c.margin + tol
             }
-            Quick::Sphere(centre, reach) => {
+            Quick::Sphere(centre, reach, _) => {
                 let gap = centre.clamp(lo, hi) - centre;
                 gap.length_squared() <= reach * reach * (1.0 + 1e-3) + 1e-10
             }
@@ -391,30 +390,44 @@ impl PreparedCollider {
     /// See [`Collider::resolve`]; `c` is the collider this was prepared from.
     #[inline]
     pub fn resolve(&self, c: &Collider, x: Vec3, v: Vec3) -> Option<(Vec3, Vec3)> {
-        match self.quick {
-            Quick::Plane(n, d, t) => {
-                let tol = 1e-5 * (x.abs().max_element() + t + 1.0);
-                if n.dot(x) - d > c.margin + tol {
+        // The plane and the ball in world space: the same formulas as `closest` in the local frame, without the
+        // two pose transforms. Measured on the harness's `terms` cloth (128², resting on the ground and a ball),
+        // 2026-11-24: a contact 33.7 → 15.3 ns; with `sweeps` inlined, the collide stage 60 → 26 µs per step
+        // over the harness's window, 351 → 227 µs once half the cloth rests on them.
+        let (x_new, n) = match self.quick {
+            Quick::Plane(n, d, _) => {
+                // Signed distance; at or past the margin (≥ 0) no contact.
+                let s = n.dot(x) - d;
+                if s >= c.margin {
                     return None;
                 }
+                (x + n * (c.margin - s), n)
             }
-            Quick::Sphere(centre, reach) => {
-                if (x - centre).length_squared() > reach * reach * (1.0 + 1e-4) + 1e-12 {
+            Quick::Sphere(centre, reach, r) => {
+                let d = x - centre;
+                let l2 = d.length_squared();
+                if l2 > reach * reach * (1.0 + 1e-4) + 1e-12 {
                     return None;
                 }
+                let l = l2.sqrt();
+                if l >= r && (l - r) * (l - r) >= c.margin * c.margin {
+                    return None;
+                }
+                let n = if l > 0.0 { d / l } else { Vec3::Y };
+                (centre + n * (r + c.margin), n)
             }
-            Quick::None => {}
-        }
-        if !self.aabb.contains_local_point(x) {
-            return None;
-        }
-        let local = self.pose.inverse_transform_point(x);
-        let (proj, inside, n_local) = self.closest(c, local);
-        if !inside && (local - proj).length_squared() >= c.margin * c.margin {
-            return None;
-        }
-        let n = self.pose.rotation * n_local;
-        let x_new = self.pose.transform_point(proj + n_local * c.margin);
+            Quick::None => {
+                if !self.aabb.contains_local_point(x) {
+                    return None;
+                }
+                let local = self.pose.inverse_transform_point(x);
+                let (proj, inside, n_local) = self.closest(c, local);
+                if !inside && (local - proj).length_squared() >= c.margin * c.margin {
+                    return None;
+                }
+                (self.pose.transform_point(proj + n_local * c.margin), self.pose.rotation * n_local)
+            }
+        };
         let v_col = c.velocity_at(&self.pose, x_new);
         let v_rel = v - v_col;
         let vn = v_rel.dot(n);

@@ -12,6 +12,9 @@ const PUSHES: usize = 8;
 /// Resolves a particle at `(x0, v0)` against the colliders `ids` (indices into `prepared`/`colliders`), in order,
 /// sweeping until clear (a push out of one collider can land in another: a corner), at most 3 times; `None` if
 /// none touched it. `pushed` receives the positions after each push, its flag cleared if they overflow it.
+/// Inlined: most calls end at the plane's or the ball's first test (see `PreparedCollider::resolve`), and a
+/// call of its own cost more than that test (the arguments stored and reloaded, the push list set up).
+#[inline(always)]
 fn sweeps(
     prepared: &[crate::collision::PreparedCollider],
     colliders: &[crate::collision::Collider],
