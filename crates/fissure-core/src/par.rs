@@ -41,6 +41,17 @@ pub(crate) fn pool_has_threads() -> bool {
     rayon::current_num_threads() > 1
 }
 
+/// The threads a pass over `n` elements in `chunks` chunks runs on (to turn the summed time of its pieces into
+/// an estimate of its wall time).
+pub(crate) fn threads_for(n: usize, chunks: usize) -> usize {
+    #[cfg(feature = "parallel")]
+    if pooled(n) {
+        return rayon::current_num_threads().min(chunks).max(1);
+    }
+    let _ = (n, chunks);
+    1
+}
+
 /// Runs `f(start, chunk)` over `data` in fixed chunks, in parallel when there is more than one chunk.
 #[inline]
 pub(crate) fn chunks<T: Send>(data: &mut [T], f: impl Fn(usize, &mut [T]) + Sync + Send) {

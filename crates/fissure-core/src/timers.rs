@@ -75,6 +75,12 @@ impl StageTimers {
         self.time[stage as usize] += since.elapsed();
         self.calls[stage as usize] += 1;
     }
+    /// Adds `d` to `stage` (a stage timed in pieces inside another's pass).
+    #[inline]
+    pub(crate) fn add_time(&mut self, stage: Stage, d: Duration) {
+        self.time[stage as usize] += d;
+        self.calls[stage as usize] += 1;
+    }
     /// Total time in `stage`.
     pub fn time(&self, stage: Stage) -> Duration {
         self.time[stage as usize]

@@ -50,80 +50,98 @@ fn sweeps(
 }
 
 impl<R: Real> CpuSolver<R> {
+    /// The colliders at time `t` \[s\], into `self.colliders` (and the list of all their indices).
+    pub(super) fn prepare_colliders(&mut self, m: &Model<R>, t: f64) {
+        self.colliders.clear();
+        self.colliders.extend(m.colliders.iter().map(|c| c.prepare(t)));
+        if self.collider_ids.len() != self.colliders.len() {
+            self.collider_ids = (0..self.colliders.len() as u32).collect();
+        }
+    }
+
     /// Resolves contacts; flags `blown` if a contact produced a non-finite state (a particle flung to ±1e300 by
-    /// an unstable step, whose distance to a collider overflows).
+    /// an unstable step, whose distance to a collider overflows). Symplectic Euler on spring runs resolves them
+    /// in its own pass instead (`collide_fused`), and this does nothing then.
     pub(super) fn collide(&mut self, m: &Model<R>, state: &mut State<R>, blown: &AtomicBool) {
-        if !m.has_colliders() {
+        if !m.has_colliders() || std::mem::take(&mut self.collided) {
             return;
         }
         let t0 = Instant::now();
-        self.colliders.clear();
-        self.colliders.extend(m.colliders.iter().map(|c| c.prepare(state.time)));
-        let prepared = &self.colliders;
-        let inv_mass = &m.particle_inv_mass;
-        let colliders = &m.colliders;
-        if self.collider_ids.len() != prepared.len() {
-            self.collider_ids = (0..prepared.len() as u32).collect();
-        }
-        let every = &self.collider_ids[..];
+        self.prepare_colliders(m, state.time);
+        let (prepared, every) = (&self.colliders[..], &self.collider_ids[..]);
         par::chunks2(&mut state.particle_q, &mut state.particle_qd, |start, qs, vs| {
-            // Per block of particles, the colliders its bounding box can reach. A particle is resolved against
-            // those alone, and the others are then checked at every position it was pushed to: when none of them
-            // reaches any (the usual case), the full resolve against every collider would have made the same pushes
-            // in the same order (a far collider's test depends on the position alone, and fails at all of them),
-            // so the result is the same bit for bit; otherwise the particle takes the full resolve.
-            let mut near = [0u32; COLLIDE_NEAR];
-            let mut bad = false;
-            for (b, (qb, vb)) in qs.chunks_mut(COLLIDE_BLOCK).zip(vs.chunks_mut(COLLIDE_BLOCK)).enumerate() {
-                let p0 = start + b * COLLIDE_BLOCK;
-                let (mut lo, mut hi) = (glam::Vec3::splat(f32::INFINITY), glam::Vec3::splat(f32::NEG_INFINITY));
-                for x in qb.iter() {
-                    let x = x.to_vec3();
-                    lo = lo.min(x);
-                    hi = hi.max(x);
-                }
-                let mut count = 0;
-                let mut all = !(lo.is_finite() && hi.is_finite()) || prepared.len() > COLLIDE_NEAR;
-                if !all {
-                    for (k, (p, c)) in prepared.iter().zip(&m.colliders).enumerate() {
-                        if p.may_touch_box(c, lo, hi) {
-                            near[count] = k as u32;
-                            count += 1;
-                        }
-                    }
-                    if count == 0 {
-                        continue;
-                    }
-                    all = count == prepared.len();
-                }
-                let near: &[u32] = if all { every } else { &near[..count] };
-                for k in 0..qb.len() {
-                    if inv_mass[p0 + k] == R::ZERO {
-                        continue;
-                    }
-                    let (x, v) = (qb[k].to_vec3(), vb[k].to_vec3());
-                    let mut pushed = ([glam::Vec3::ZERO; PUSHES], 0usize, true);
-                    let Some(mut out) = sweeps(prepared, colliders, near, x, v, &mut pushed) else { continue };
-                    if !all {
-                        let (list, n, complete) = pushed;
-                        let far_clear = complete
-                            && (0..prepared.len()).filter(|c| !near.contains(&(*c as u32))).all(|c| {
-                                list[..n].iter().all(|&xp| prepared[c].resolve(&colliders[c], xp, v).is_none())
-                            });
-                        if !far_clear {
-                            out = sweeps(prepared, colliders, every, x, v, &mut pushed)
-                                .expect("a particle a near collider touches is touched by the full resolve");
-                        }
-                    }
-                    qb[k] = R::V::from_vec3(out.0);
-                    vb[k] = R::V::from_vec3(out.1);
-                    bad |= !(qb[k].is_finite() && vb[k].is_finite());
-                }
-            }
-            if bad {
+            if collide_chunk(m, prepared, every, start, qs, vs) {
                 blown.store(true, Ordering::Relaxed);
             }
         });
         self.timers.add(Stage::Collide, t0);
     }
+}
+
+/// Particles `start .. start + qs.len()` (`start` a multiple of [`COLLIDE_BLOCK`]) against the colliders
+/// `prepared` (`every`: all their indices); true if a contact made a state non-finite.
+#[inline]
+pub(super) fn collide_chunk<R: Real>(
+    m: &Model<R>,
+    prepared: &[crate::collision::PreparedCollider],
+    every: &[u32],
+    start: usize,
+    qs: &mut [R::V],
+    vs: &mut [R::V],
+) -> bool {
+    let (inv_mass, colliders) = (&m.particle_inv_mass, &m.colliders);
+    // Per block of particles, the colliders its bounding box can reach. A particle is resolved against
+    // those alone, and the others are then checked at every position it was pushed to: when none of them
+    // reaches any (the usual case), the full resolve against every collider would have made the same pushes
+    // in the same order (a far collider's test depends on the position alone, and fails at all of them),
+    // so the result is the same bit for bit; otherwise the particle takes the full resolve.
+    let mut near = [0u32; COLLIDE_NEAR];
+    let mut bad = false;
+    for (b, (qb, vb)) in qs.chunks_mut(COLLIDE_BLOCK).zip(vs.chunks_mut(COLLIDE_BLOCK)).enumerate() {
+        let p0 = start + b * COLLIDE_BLOCK;
+        let (mut lo, mut hi) = (glam::Vec3::splat(f32::INFINITY), glam::Vec3::splat(f32::NEG_INFINITY));
+        for x in qb.iter() {
+            let x = x.to_vec3();
+            lo = lo.min(x);
+            hi = hi.max(x);
+        }
+        let mut count = 0;
+        let mut all = !(lo.is_finite() && hi.is_finite()) || prepared.len() > COLLIDE_NEAR;
+        if !all {
+            for (k, (p, c)) in prepared.iter().zip(&m.colliders).enumerate() {
+                if p.may_touch_box(c, lo, hi) {
+                    near[count] = k as u32;
+                    count += 1;
+                }
+            }
+            if count == 0 {
+                continue;
+            }
+            all = count == prepared.len();
+        }
+        let near: &[u32] = if all { every } else { &near[..count] };
+        for k in 0..qb.len() {
+            if inv_mass[p0 + k] == R::ZERO {
+                continue;
+            }
+            let (x, v) = (qb[k].to_vec3(), vb[k].to_vec3());
+            let mut pushed = ([glam::Vec3::ZERO; PUSHES], 0usize, true);
+            let Some(mut out) = sweeps(prepared, colliders, near, x, v, &mut pushed) else { continue };
+            if !all {
+                let (list, n, complete) = pushed;
+                let far_clear = complete
+                    && (0..prepared.len())
+                        .filter(|c| !near.contains(&(*c as u32)))
+                        .all(|c| list[..n].iter().all(|&xp| prepared[c].resolve(&colliders[c], xp, v).is_none()));
+                if !far_clear {
+                    out = sweeps(prepared, colliders, every, x, v, &mut pushed)
+                        .expect("a particle a near collider touches is touched by the full resolve");
+                }
+            }
+            qb[k] = R::V::from_vec3(out.0);
+            vb[k] = R::V::from_vec3(out.1);
+            bad |= !(qb[k].is_finite() && vb[k].is_finite());
+        }
+    }
+    bad
 }

@@ -123,10 +123,31 @@ impl<R: Real> CpuSolver<R> {
         let spans = std::mem::take(&mut self.f.strain_spans);
         let sink = measure.then(|| StrainSink::new(&mut strain, over, spans));
         let sink_ref = sink.as_ref();
+        // The colliders resolved by each block right after its update, while its particles are in cache: the
+        // collision pass's work without a pass of its own. On two threads a pass handed to the pool costs a
+        // wake-up. On the 128² cloth on the ground and a ball (harness `terms`, 2026-11-24, 7 runs), the colliders
+        // added 0.39–0.69× the spring pass with a pass of their own, and −0.20…0.35× (6 of 7 runs ≤ 0.3) fused.
+        // Each block starts at a multiple of `par::CHUNK`, so the collision blocks and their near lists are the
+        // pass's: the same bits. The collide stage gets the pieces' summed time over the pass's threads.
+        let fused = self.collide_at.take();
+        if let Some(time) = fused {
+            self.prepare_colliders(m, time);
+        }
+        let (prepared, every) = (&self.colliders[..], &self.collider_ids[..]);
+        let collide_ns = std::sync::atomic::AtomicU64::new(0);
         // Buffers sized by `ensure_sized`.
         let (q, qd) = (&s.particle_q, &s.particle_qd);
         let f = &self.f;
         let projected = m.damping_model == DampingModel::Projected;
+        let collide = |p0: usize, qs: &mut [R::V], vs: &mut [R::V]| {
+            if fused.is_some() {
+                let t = Instant::now();
+                if super::collide::collide_chunk(m, prepared, every, p0, qs, vs) {
+                    blown.store(true, Ordering::Relaxed);
+                }
+                collide_ns.fetch_add(t.elapsed().as_nanos() as u64, Ordering::Relaxed);
+            }
+        };
         par::chunks3_of(
             f.run_blocks.len(),
             &mut self.f_block,
@@ -143,6 +164,7 @@ impl<R: Real> CpuSolver<R> {
                     if update_dispatch(m, q, qd, p0, fs, qs, vs, dt) {
                         blown.store(true, Ordering::Relaxed);
                     }
+                    collide(p0, qs, vs);
                     return;
                 }
                 let mut bad = false;
@@ -170,8 +192,21 @@ impl<R: Real> CpuSolver<R> {
                 if bad {
                     blown.store(true, Ordering::Relaxed);
                 }
+                collide(p0, qs, vs);
             },
         );
+        // The collision work's share of the pass's wall time: its pieces' summed time over the threads.
+        let pass = t.elapsed();
+        let collided = if fused.is_some() {
+            let blocks = s.particle_q.len().div_ceil(self.f.run_blocks.len());
+            let threads = par::threads_for(s.particle_q.len(), blocks) as u32;
+            let c = (std::time::Duration::from_nanos(collide_ns.into_inner()) / threads).min(pass);
+            self.timers.add_time(Stage::Collide, c);
+            self.collided = true;
+            c
+        } else {
+            std::time::Duration::ZERO
+        };
         if let Some(sink) = sink {
             self.f.strain_spans = sink.finish();
             self.f.strain_sparse = over.is_some();
@@ -180,7 +215,7 @@ impl<R: Real> CpuSolver<R> {
         self.f.measured = measure;
         std::mem::swap(&mut s.particle_q, &mut self.q_next);
         std::mem::swap(&mut s.particle_qd, &mut self.qd_next);
-        self.timers.add(Stage::Springs, t);
+        self.timers.add_time(Stage::Springs, t.elapsed().saturating_sub(collided));
     }
 
     pub(super) fn velocity_verlet(&mut self, m: &Model<R>, s: &mut State<R>, dt: R, blown: &AtomicBool) {

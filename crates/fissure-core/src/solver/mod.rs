@@ -253,6 +253,11 @@ pub struct CpuSolver<R: Real = f32> {
     fuse_loads: bool,
     /// …and must, because that evaluation measured.
     loads_pending: bool,
+    /// The colliders' time \[s\] when this substep's integrator may resolve them in its own pass (symplectic
+    /// Euler on spring runs, see `collide_chunk`)…
+    collide_at: Option<f64>,
+    /// …and whether it did (the collision pass is then skipped).
+    collided: bool,
 }
 
 impl<R: Real> CpuSolver<R> {
@@ -459,6 +464,9 @@ impl<R: Real> CpuSolver<R> {
         if m.has_contact() {
             self.ct.x0.clone_from(&s.particle_q);
         }
+        // Handles move after the integrator and before the collision pass: with handles the pass stays apart.
+        self.collide_at = (m.has_colliders() && !m.has_handles()).then_some(s.time + dt);
+        self.collided = false;
         match self.config.integrator {
             Integrator::SymplecticEuler => self.symplectic_euler(m, s, h, &blown),
             Integrator::VelocityVerlet => self.velocity_verlet(m, s, h, &blown),
