@@ -125,10 +125,11 @@ impl<R: Real> CpuSolver<R> {
         let sink_ref = sink.as_ref();
         // The colliders resolved by each block right after its update, while its particles are in cache: the
         // collision pass's work without a pass of its own. On two threads a pass handed to the pool costs a
-        // wake-up. On the 128² cloth on the ground and a ball (harness `terms`, 2026-11-24, 7 runs), the colliders
-        // added 0.39–0.69× the spring pass with a pass of their own, and −0.20…0.35× (6 of 7 runs ≤ 0.3) fused.
-        // Each block starts at a multiple of `par::CHUNK`, so the collision blocks and their near lists are the
-        // pass's: the same bits. The collide stage gets the pieces' summed time over the pass's threads.
+        // wake-up. On the 128² cloth on the ground and a ball (harness `terms`, 2026-11-24), the colliders added
+        // 0.08–0.69× the spring pass with a pass of their own (7 of 8 runs over 0.3), and −0.20…0.35× fused (6
+        // of 7 runs at or under 0.3). Each block starts at a multiple of `par::CHUNK`, so the collision blocks
+        // and their near lists are the pass's: the same bits. The collide stage gets the pieces' summed time over
+        // the pass's threads.
         let fused = self.collide_at.take();
         if let Some(time) = fused {
             self.prepare_colliders(m, time);
