@@ -304,15 +304,7 @@ impl PreparedCollider {
     #[inline]
     fn closest(&self, c: &Collider, p: Vec3) -> (Vec3, bool, Vec3) {
         match self.shape {
-            Analytic::HalfSpace(n) => {
-                let s = n.dot(p);
-                (p - n * s, s < 0.0, n)
-            }
-            Analytic::Ball(r) => {
-                let l = p.length();
-                let n = if l > 0.0 { p / l } else { Vec3::Y };
-                (n * r, l < r, n)
-            }
+            // The plane and the ball never come here: `resolve` projects them in world space (`Quick`).
             Analytic::Cuboid(h) => {
                 let a = p.abs();
                 if a.x <= h.x && a.y <= h.y && a.z <= h.z {
@@ -346,7 +338,7 @@ impl PreparedCollider {
                 let n = if l > 0.0 { d / l } else { ab.any_orthonormal_vector() };
                 (c + n * r, l < r, n)
             }
-            Analytic::General => {
+            Analytic::HalfSpace(_) | Analytic::Ball(_) | Analytic::General => {
                 // `solid = false`: interior points project onto the boundary (with `solid = true` parry projects
                 // them onto themselves); `is_inside` still says which side they are on.
                 let proj = c.shape.project_local_point(p, false);
