@@ -242,13 +242,17 @@ const SPAN: usize = 64;
 /// Corner forces (pressure share + a third of drag and lift) of triangles `start .. start + out.len()`, a span
 /// at a time: per-lane inputs gathered into per-component arrays, the wind sample and [`aero_components`] run
 /// as plain loops over them (packed square roots, divisions and the polynomial sines), results scattered back.
+/// `cross`: the triangles' cross vectors (this chunk's), read, or with `form_cross` formed here from the
+/// positions the pass loads anyway and stored (a model without gas: no pass of its own for them; 128² cloth in
+/// wind, harness `terms`, 2026-11-24: the surface stage 149–150 → 140–142 µs a step).
 /// Compiled for AVX2 when the CPU has it (same bits: see `run_block_dispatch`).
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn wind_chunk<R: Real>(
     m: &Model<R>,
     q: &[R::V],
     qd: &[R::V],
-    cross: &[R::V],
+    cross: &mut [R::V],
+    form_cross: bool,
     pressure: &[R],
     w: &PreparedWind<R>,
     rho_half: R,
@@ -259,11 +263,11 @@ pub(crate) fn wind_chunk<R: Real>(
     {
         if std::arch::is_x86_feature_detected!("avx2") {
             // SAFETY: the CPU supports AVX2, checked just above.
-            unsafe { wind_chunk_avx2(m, q, qd, cross, pressure, w, rho_half, start, out) };
+            unsafe { wind_chunk_avx2(m, q, qd, cross, form_cross, pressure, w, rho_half, start, out) };
             return;
         }
     }
-    wind_chunk_impl(m, q, qd, cross, pressure, w, rho_half, start, out)
+    wind_chunk_impl(m, q, qd, cross, form_cross, pressure, w, rho_half, start, out)
 }
 
 #[cfg(target_arch = "x86_64")]
@@ -273,14 +277,15 @@ fn wind_chunk_avx2<R: Real>(
     m: &Model<R>,
     q: &[R::V],
     qd: &[R::V],
-    cross: &[R::V],
+    cross: &mut [R::V],
+    form_cross: bool,
     pressure: &[R],
     w: &PreparedWind<R>,
     rho_half: R,
     start: usize,
     out: &mut [R::V],
 ) {
-    wind_chunk_impl(m, q, qd, cross, pressure, w, rho_half, start, out)
+    wind_chunk_impl(m, q, qd, cross, form_cross, pressure, w, rho_half, start, out)
 }
 
 #[allow(clippy::too_many_arguments)]
@@ -289,7 +294,8 @@ fn wind_chunk_impl<R: Real>(
     m: &Model<R>,
     q: &[R::V],
     qd: &[R::V],
-    cross: &[R::V],
+    cross: &mut [R::V],
+    form_cross: bool,
     pressure: &[R],
     w: &PreparedWind<R>,
     rho_half: R,
@@ -309,7 +315,11 @@ fn wind_chunk_impl<R: Real>(
             let [a, b, d] = m.tri_indices[t].map(|i| i as usize);
             let centroid = ((q[a] + q[b] + q[d]) * third).to_array();
             let vel = ((qd[a] + qd[b] + qd[d]) * third).to_array();
-            let cr = cross[t].to_array();
+            if form_cross {
+                // The surface pass's formula: the same bits.
+                cross[k0 + k] = (q[b] - q[a]).cross(q[d] - q[a]);
+            }
+            let cr = cross[k0 + k].to_array();
             for e in 0..3 {
                 (c[e][k], x[e][k], v[e][k]) = (cr[e], centroid[e], vel[e]);
             }
