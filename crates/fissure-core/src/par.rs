@@ -104,7 +104,46 @@ pub(crate) fn chunks2_work<A: Send, B: Send>(
     a.chunks_mut(size).zip(b.chunks_mut(size)).enumerate().for_each(|(i, (x, y))| f(i * size, x, y));
 }
 
-/// From this much work a gather pass ([`chunks2_work`]) goes to the pool. By its particle count alone (below
+/// [`chunks2_work`] over one slice.
+#[inline]
+pub(crate) fn chunks_work<A: Send>(work: usize, size: usize, a: &mut [A], f: impl Fn(usize, &mut [A]) + Sync + Send) {
+    #[cfg(feature = "parallel")]
+    if work >= GATHER_MIN && pool_has_threads() {
+        a.par_chunks_mut(size).enumerate().for_each(|(c, x)| f(c * size, x));
+        return;
+    }
+    let _ = work;
+    a.chunks_mut(size).enumerate().for_each(|(i, x)| f(i * size, x));
+}
+
+/// [`chunks2_work`] over three slices.
+#[inline]
+pub(crate) fn chunks3_work<A: Send, B: Send, C: Send>(
+    work: usize,
+    size: usize,
+    a: &mut [A],
+    b: &mut [B],
+    c: &mut [C],
+    f: impl Fn(usize, &mut [A], &mut [B], &mut [C]) + Sync + Send,
+) {
+    #[cfg(feature = "parallel")]
+    if work >= GATHER_MIN && pool_has_threads() {
+        a.par_chunks_mut(size)
+            .zip(b.par_chunks_mut(size))
+            .zip(c.par_chunks_mut(size))
+            .enumerate()
+            .for_each(|(i, ((x, y), z))| f(i * size, x, y, z));
+        return;
+    }
+    let _ = work;
+    a.chunks_mut(size)
+        .zip(b.chunks_mut(size))
+        .zip(c.chunks_mut(size))
+        .enumerate()
+        .for_each(|(i, ((x, y), z))| f(i * size, x, y, z));
+}
+
+/// From this much work a gather pass ([`chunks2_work`] and its kin) goes to the pool. By its particle count alone (below
 /// [`PAR_MIN`]) the 10,242-vertex ball's gather (12.7 ns a particle with pressure, a dozen row entries each) ran
 /// inline: 130 µs of a 265 µs step on two threads; handed to the pool, 78 µs (2026-11-24, 2-core VM). The
 /// 2,562-vertex ball's (33,282 units) lost: 33 µs inline, 38 handed over (the other thread's wake-up).
@@ -213,18 +252,8 @@ pub(crate) fn chunks4<A: Send, B: Send, C: Send, D: Send>(
         .for_each(|(i, ((w, x), (y, z)))| f(i * CHUNK, w, x, y, z));
 }
 
-/// Like [`chunks`] over three slices of equal length walked together.
-#[inline]
-pub(crate) fn chunks3<A: Send, B: Send, C: Send>(
-    a: &mut [A],
-    b: &mut [B],
-    c: &mut [C],
-    f: impl Fn(usize, &mut [A], &mut [B], &mut [C]) + Sync + Send,
-) {
-    chunks3_of(CHUNK, a, b, c, f)
-}
-
-/// [`chunks3`] in chunks of `size` elements (see [`chunks_of`]).
+/// Like [`chunks`] over three slices of equal length walked together, in chunks of `size` elements (see
+/// [`chunks_of`]).
 #[inline]
 pub(crate) fn chunks3_of<A: Send, B: Send, C: Send>(
     size: usize,

@@ -70,7 +70,9 @@ impl<R: Real> CpuSolver<R> {
         let mut load = std::mem::take(&mut self.f.load);
         let f = &self.f;
         let gas = surface && m.has_pressure();
-        par::chunks3(&mut s.particle_q, &mut s.particle_qd, &mut load, |start, qs, vs, ls| {
+        // Each spring entry is walked for two sums here.
+        let work = gather_work(m, surface) + 2 * m.spring_count();
+        par::chunks3_work(work, GATHER_CHUNK, &mut s.particle_q, &mut s.particle_qd, &mut load, |start, qs, vs, ls| {
             let mut bad = false;
             for k in 0..qs.len() {
                 let i = start + k;
@@ -234,32 +236,40 @@ impl<R: Real> CpuSolver<R> {
         let t = Instant::now();
         let f = &self.f;
         let mut v_pred = std::mem::take(&mut self.v_pred);
-        par::chunks3(&mut s.particle_q, &mut s.particle_qd, &mut v_pred, |start, qs, vs, ps| {
-            let mut bad = false;
-            for k in 0..qs.len() {
-                let i = start + k;
-                let w = m.particle_inv_mass[i];
-                if w != R::ZERO {
-                    let a = particle_force(m, f, surface, i) * w;
-                    ps[k] = vs[k] + a * dt;
-                    vs[k] += a * half;
-                    qs[k] += vs[k] * dt;
-                    bad |= !qs[k].is_finite();
-                } else {
-                    ps[k] = vs[k];
+        let work = gather_work(m, surface);
+        par::chunks3_work(
+            work,
+            GATHER_CHUNK,
+            &mut s.particle_q,
+            &mut s.particle_qd,
+            &mut v_pred,
+            |start, qs, vs, ps| {
+                let mut bad = false;
+                for k in 0..qs.len() {
+                    let i = start + k;
+                    let w = m.particle_inv_mass[i];
+                    if w != R::ZERO {
+                        let a = particle_force(m, f, surface, i) * w;
+                        ps[k] = vs[k] + a * dt;
+                        vs[k] += a * half;
+                        qs[k] += vs[k] * dt;
+                        bad |= !qs[k].is_finite();
+                    } else {
+                        ps[k] = vs[k];
+                    }
                 }
-            }
-            if bad {
-                blown.store(true, Ordering::Relaxed);
-            }
-        });
+                if bad {
+                    blown.store(true, Ordering::Relaxed);
+                }
+            },
+        );
         self.timers.add(Stage::Integrate, t);
         // Kick the second half with the forces at the new positions and the extrapolated velocities.
         let surface = self.forces(m, &s.particle_q, &v_pred, s.time + dt.to_f64());
         self.v_pred = v_pred;
         let t = Instant::now();
         let f = &self.f;
-        par::chunks(&mut s.particle_qd, |start, vs| {
+        par::chunks_work(gather_work(m, surface), GATHER_CHUNK, &mut s.particle_qd, |start, vs| {
             let mut bad = false;
             for k in 0..vs.len() {
                 let i = start + k;
