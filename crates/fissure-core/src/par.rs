@@ -226,10 +226,12 @@ fn total2<R: Real>(partials: &[[R; 2]]) -> [R; 2] {
     partials.iter().fold([R::ZERO; 2], |[a, b], &[x, y]| [a + x, b + y])
 }
 
-/// Like [`chunks`] over four slices of equal length walked together.
+/// [`chunks2_work`] over four slices (the RK4 stages' gathers).
 #[inline]
 #[allow(clippy::type_complexity)]
-pub(crate) fn chunks4<A: Send, B: Send, C: Send, D: Send>(
+pub(crate) fn chunks4_work<A: Send, B: Send, C: Send, D: Send>(
+    work: usize,
+    size: usize,
     a: &mut [A],
     b: &mut [B],
     c: &mut [C],
@@ -237,19 +239,20 @@ pub(crate) fn chunks4<A: Send, B: Send, C: Send, D: Send>(
     f: impl Fn(usize, &mut [A], &mut [B], &mut [C], &mut [D]) + Sync + Send,
 ) {
     #[cfg(feature = "parallel")]
-    if pooled(a.len()) {
-        a.par_chunks_mut(CHUNK)
-            .zip(b.par_chunks_mut(CHUNK))
-            .zip(c.par_chunks_mut(CHUNK).zip(d.par_chunks_mut(CHUNK)))
+    if work >= GATHER_MIN && pool_has_threads() {
+        a.par_chunks_mut(size)
+            .zip(b.par_chunks_mut(size))
+            .zip(c.par_chunks_mut(size).zip(d.par_chunks_mut(size)))
             .enumerate()
-            .for_each(|(i, ((w, x), (y, z)))| f(i * CHUNK, w, x, y, z));
+            .for_each(|(i, ((w, x), (y, z)))| f(i * size, w, x, y, z));
         return;
     }
-    a.chunks_mut(CHUNK)
-        .zip(b.chunks_mut(CHUNK))
-        .zip(c.chunks_mut(CHUNK).zip(d.chunks_mut(CHUNK)))
+    let _ = work;
+    a.chunks_mut(size)
+        .zip(b.chunks_mut(size))
+        .zip(c.chunks_mut(size).zip(d.chunks_mut(size)))
         .enumerate()
-        .for_each(|(i, ((w, x), (y, z)))| f(i * CHUNK, w, x, y, z));
+        .for_each(|(i, ((w, x), (y, z)))| f(i * size, w, x, y, z));
 }
 
 /// Like [`chunks`] over three slices of equal length walked together, in chunks of `size` elements (see

@@ -299,6 +299,7 @@ impl<R: Real> CpuSolver<R> {
             let f = &self.f;
             let ws = weight[stage];
             let first = stage == 0;
+            let work = gather_work(m, surface);
             // Slopes of this stage: kx = stage velocity, kv = acceleration. Accumulate, then either set up the next
             // stage or (last stage) apply the weighted sum to the state.
             let slope = |i: usize, vt: R::V| -> (R::V, R::V) {
@@ -308,24 +309,34 @@ impl<R: Real> CpuSolver<R> {
             if stage < 3 {
                 let cn = c_next[stage];
                 let (x0, v0) = (&s.particle_q, &s.particle_qd);
-                par::chunks4(&mut rk.xt, &mut rk.vt, &mut rk.ax, &mut rk.av, |start, xs, vs, axs, avs| {
-                    for k in 0..xs.len() {
-                        let i = start + k;
-                        let (kx, kv) = slope(i, vs[k]);
-                        if first {
-                            axs[k] = kx * ws;
-                            avs[k] = kv * ws;
-                        } else {
-                            axs[k] += kx * ws;
-                            avs[k] += kv * ws;
+                par::chunks4_work(
+                    work,
+                    GATHER_CHUNK,
+                    &mut rk.xt,
+                    &mut rk.vt,
+                    &mut rk.ax,
+                    &mut rk.av,
+                    |start, xs, vs, axs, avs| {
+                        for k in 0..xs.len() {
+                            let i = start + k;
+                            let (kx, kv) = slope(i, vs[k]);
+                            if first {
+                                axs[k] = kx * ws;
+                                avs[k] = kv * ws;
+                            } else {
+                                axs[k] += kx * ws;
+                                avs[k] += kv * ws;
+                            }
+                            xs[k] = x0[i] + kx * cn;
+                            vs[k] = v0[i] + kv * cn;
                         }
-                        xs[k] = x0[i] + kx * cn;
-                        vs[k] = v0[i] + kv * cn;
-                    }
-                });
+                    },
+                );
             } else {
                 let vt = &rk.vt;
-                par::chunks4(
+                par::chunks4_work(
+                    work,
+                    GATHER_CHUNK,
                     &mut s.particle_q,
                     &mut s.particle_qd,
                     &mut rk.ax,
