@@ -116,31 +116,16 @@ pub(crate) fn chunks_work<A: Send>(work: usize, size: usize, a: &mut [A], f: imp
     a.chunks_mut(size).enumerate().for_each(|(i, x)| f(i * size, x));
 }
 
-/// [`chunks2_work`] over three slices.
+/// Whether a gather pass with `work` (in spring-sized units) goes to the pool (see [`chunks2_work`]).
 #[inline]
-pub(crate) fn chunks3_work<A: Send, B: Send, C: Send>(
-    work: usize,
-    size: usize,
-    a: &mut [A],
-    b: &mut [B],
-    c: &mut [C],
-    f: impl Fn(usize, &mut [A], &mut [B], &mut [C]) + Sync + Send,
-) {
+pub(crate) fn gather_pool(work: usize) -> bool {
     #[cfg(feature = "parallel")]
-    if work >= GATHER_MIN && pool_has_threads() {
-        a.par_chunks_mut(size)
-            .zip(b.par_chunks_mut(size))
-            .zip(c.par_chunks_mut(size))
-            .enumerate()
-            .for_each(|(i, ((x, y), z))| f(i * size, x, y, z));
-        return;
+    return work >= GATHER_MIN && pool_has_threads();
+    #[cfg(not(feature = "parallel"))]
+    {
+        let _ = work;
+        false
     }
-    let _ = work;
-    a.chunks_mut(size)
-        .zip(b.chunks_mut(size))
-        .zip(c.chunks_mut(size))
-        .enumerate()
-        .for_each(|(i, ((x, y), z))| f(i * size, x, y, z));
 }
 
 /// From this much work a gather pass ([`chunks2_work`] and its kin) goes to the pool. By its particle count alone (below
@@ -266,7 +251,25 @@ pub(crate) fn chunks3_of<A: Send, B: Send, C: Send>(
     f: impl Fn(usize, &mut [A], &mut [B], &mut [C]) + Sync + Send,
 ) {
     #[cfg(feature = "parallel")]
-    if pooled(a.len()) {
+    let pool = pooled(a.len());
+    #[cfg(not(feature = "parallel"))]
+    let pool = false;
+    chunks3_pooled(pool, size, a, b, c, f)
+}
+
+/// [`chunks3_of`]'s walk, on the pool if `pool` (the same chunks either way; a gather passes
+/// [`gather_pool`]).
+#[inline]
+pub(crate) fn chunks3_pooled<A: Send, B: Send, C: Send>(
+    pool: bool,
+    size: usize,
+    a: &mut [A],
+    b: &mut [B],
+    c: &mut [C],
+    f: impl Fn(usize, &mut [A], &mut [B], &mut [C]) + Sync + Send,
+) {
+    #[cfg(feature = "parallel")]
+    if pool {
         a.par_chunks_mut(size)
             .zip(b.par_chunks_mut(size))
             .zip(c.par_chunks_mut(size))
@@ -274,6 +277,7 @@ pub(crate) fn chunks3_of<A: Send, B: Send, C: Send>(
             .for_each(|(i, ((x, y), z))| f(i * size, x, y, z));
         return;
     }
+    let _ = pool;
     a.chunks_mut(size)
         .zip(b.chunks_mut(size))
         .zip(c.chunks_mut(size))

@@ -72,46 +72,53 @@ impl<R: Real> CpuSolver<R> {
         let gas = surface && m.has_pressure();
         // Each spring entry is walked for two sums here.
         let work = gather_work(m, surface) + 2 * m.spring_count();
-        par::chunks3_work(work, GATHER_CHUNK, &mut s.particle_q, &mut s.particle_qd, &mut load, |start, qs, vs, ls| {
-            let mut bad = false;
-            for k in 0..qs.len() {
-                let i = start + k;
-                let mut ft = m.gravity * m.particle_mass[i];
-                let mut fe = R::V::ZERO;
-                for &e in m.particle_springs.row(i) {
-                    let (sf, se) = (f.spring_f[(e >> 1) as usize], f.spring_el[(e >> 1) as usize]);
-                    if e & 1 == 0 {
-                        ft += sf;
-                        fe += se;
-                    } else {
-                        ft -= sf;
-                        fe -= se;
+        par::chunks3_pooled(
+            par::gather_pool(work),
+            GATHER_CHUNK,
+            &mut s.particle_q,
+            &mut s.particle_qd,
+            &mut load,
+            |start, qs, vs, ls| {
+                let mut bad = false;
+                for k in 0..qs.len() {
+                    let i = start + k;
+                    let mut ft = m.gravity * m.particle_mass[i];
+                    let mut fe = R::V::ZERO;
+                    for &e in m.particle_springs.row(i) {
+                        let (sf, se) = (f.spring_f[(e >> 1) as usize], f.spring_el[(e >> 1) as usize]);
+                        if e & 1 == 0 {
+                            ft += sf;
+                            fe += se;
+                        } else {
+                            ft -= sf;
+                            fe -= se;
+                        }
                     }
-                }
-                if surface {
-                    // Reached without wind only (`fuse_loads`): the triangles' forces are the gas's.
-                    let share = pressure_share(m, f, i);
-                    ft += share;
-                    if gas {
-                        fe += share;
+                    if surface {
+                        // Reached without wind only (`fuse_loads`): the triangles' forces are the gas's.
+                        let share = pressure_share(m, f, i);
+                        ft += share;
+                        if gas {
+                            fe += share;
+                        }
+                        if !f.cap_f.is_empty() {
+                            ft += f.cap_f[i];
+                        }
                     }
-                    if !f.cap_f.is_empty() {
-                        ft += f.cap_f[i];
+                    ls[k] = if m.particle_load_limit[i].is_finite() { fe.length() } else { R::ZERO };
+                    let w = m.particle_inv_mass[i];
+                    if w == R::ZERO {
+                        continue;
                     }
+                    vs[k] += ft * (w * dt);
+                    qs[k] += vs[k] * dt;
+                    bad |= !(vs[k].is_finite() && qs[k].is_finite());
                 }
-                ls[k] = if m.particle_load_limit[i].is_finite() { fe.length() } else { R::ZERO };
-                let w = m.particle_inv_mass[i];
-                if w == R::ZERO {
-                    continue;
+                if bad {
+                    blown.store(true, Ordering::Relaxed);
                 }
-                vs[k] += ft * (w * dt);
-                qs[k] += vs[k] * dt;
-                bad |= !(vs[k].is_finite() && qs[k].is_finite());
-            }
-            if bad {
-                blown.store(true, Ordering::Relaxed);
-            }
-        });
+            },
+        );
         self.f.load = load;
         self.timers.add(Stage::Integrate, t);
     }
@@ -237,8 +244,8 @@ impl<R: Real> CpuSolver<R> {
         let f = &self.f;
         let mut v_pred = std::mem::take(&mut self.v_pred);
         let work = gather_work(m, surface);
-        par::chunks3_work(
-            work,
+        par::chunks3_pooled(
+            par::gather_pool(work),
             GATHER_CHUNK,
             &mut s.particle_q,
             &mut s.particle_qd,
