@@ -83,12 +83,12 @@ pub(crate) fn chunks2<A: Send, B: Send>(a: &mut [A], b: &mut [B], f: impl Fn(usi
     a.chunks_mut(CHUNK).zip(b.chunks_mut(CHUNK)).enumerate().for_each(|(i, (x, y))| f(i * CHUNK, x, y));
 }
 
-/// [`chunks2`] for an element-wise pass whose elements cost much more than a spring each (a particle's gather
-/// over its rows): handed to the pool when `work` (in spring-sized units) reaches [`GATHER_MIN`], in chunks of
-/// `size`. Each element's result is its own, so the chunking changes no bits.
+/// [`chunks2`] on the pool if `pool`, in chunks of `size` (the same chunks either way). A per-particle gather
+/// passes [`gather_pool`] of its work: its elements cost far more than a spring each, so the element count of
+/// [`pooled`] misjudges it. Each element's result is its own, so the chunking changes no bits.
 #[inline]
-pub(crate) fn chunks2_work<A: Send, B: Send>(
-    work: usize,
+pub(crate) fn chunks2_pooled<A: Send, B: Send>(
+    pool: bool,
     size: usize,
     a: &mut [A],
     b: &mut [B],
@@ -96,27 +96,28 @@ pub(crate) fn chunks2_work<A: Send, B: Send>(
 ) {
     debug_assert_eq!(a.len(), b.len());
     #[cfg(feature = "parallel")]
-    if work >= GATHER_MIN && pool_has_threads() {
+    if pool {
         a.par_chunks_mut(size).zip(b.par_chunks_mut(size)).enumerate().for_each(|(c, (x, y))| f(c * size, x, y));
         return;
     }
-    let _ = work;
+    let _ = pool;
     a.chunks_mut(size).zip(b.chunks_mut(size)).enumerate().for_each(|(i, (x, y))| f(i * size, x, y));
 }
 
-/// [`chunks2_work`] over one slice.
+/// [`chunks2_pooled`] over one slice.
 #[inline]
-pub(crate) fn chunks_work<A: Send>(work: usize, size: usize, a: &mut [A], f: impl Fn(usize, &mut [A]) + Sync + Send) {
+pub(crate) fn chunks_pooled<A: Send>(pool: bool, size: usize, a: &mut [A], f: impl Fn(usize, &mut [A]) + Sync + Send) {
     #[cfg(feature = "parallel")]
-    if work >= GATHER_MIN && pool_has_threads() {
+    if pool {
         a.par_chunks_mut(size).enumerate().for_each(|(c, x)| f(c * size, x));
         return;
     }
-    let _ = work;
+    let _ = pool;
     a.chunks_mut(size).enumerate().for_each(|(i, x)| f(i * size, x));
 }
 
-/// Whether a gather pass with `work` (in spring-sized units) goes to the pool (see [`chunks2_work`]).
+/// Whether a gather pass with `work` (in spring-sized units: a particle, a row entry) goes to the pool: from
+/// [`GATHER_MIN`], and only when the pool has more than one thread (see [`pooled`]).
 #[inline]
 pub(crate) fn gather_pool(work: usize) -> bool {
     #[cfg(feature = "parallel")]
@@ -128,7 +129,7 @@ pub(crate) fn gather_pool(work: usize) -> bool {
     }
 }
 
-/// From this much work a gather pass ([`chunks2_work`] and its kin) goes to the pool. By its particle count alone (below
+/// From this much work a gather pass goes to the pool ([`gather_pool`]). By its particle count alone (below
 /// [`PAR_MIN`]) the 10,242-vertex ball's gather (12.7 ns a particle with pressure, a dozen row entries each) ran
 /// inline: 130 µs of a 265 µs step on two threads; handed to the pool, 78 µs (2026-11-24, 2-core VM). The
 /// 2,562-vertex ball's (33,282 units) lost: 33 µs inline, 38 handed over (the other thread's wake-up).
@@ -211,11 +212,11 @@ fn total2<R: Real>(partials: &[[R; 2]]) -> [R; 2] {
     partials.iter().fold([R::ZERO; 2], |[a, b], &[x, y]| [a + x, b + y])
 }
 
-/// [`chunks2_work`] over four slices (the RK4 stages' gathers).
+/// [`chunks2_pooled`] over four slices (the RK4 stages' gathers).
 #[inline]
 #[allow(clippy::type_complexity)]
-pub(crate) fn chunks4_work<A: Send, B: Send, C: Send, D: Send>(
-    work: usize,
+pub(crate) fn chunks4_pooled<A: Send, B: Send, C: Send, D: Send>(
+    pool: bool,
     size: usize,
     a: &mut [A],
     b: &mut [B],
@@ -224,7 +225,7 @@ pub(crate) fn chunks4_work<A: Send, B: Send, C: Send, D: Send>(
     f: impl Fn(usize, &mut [A], &mut [B], &mut [C], &mut [D]) + Sync + Send,
 ) {
     #[cfg(feature = "parallel")]
-    if work >= GATHER_MIN && pool_has_threads() {
+    if pool {
         a.par_chunks_mut(size)
             .zip(b.par_chunks_mut(size))
             .zip(c.par_chunks_mut(size).zip(d.par_chunks_mut(size)))
@@ -232,7 +233,7 @@ pub(crate) fn chunks4_work<A: Send, B: Send, C: Send, D: Send>(
             .for_each(|(i, ((w, x), (y, z)))| f(i * size, w, x, y, z));
         return;
     }
-    let _ = work;
+    let _ = pool;
     a.chunks_mut(size)
         .zip(b.chunks_mut(size))
         .zip(c.chunks_mut(size).zip(d.chunks_mut(size)))
@@ -257,8 +258,7 @@ pub(crate) fn chunks3_of<A: Send, B: Send, C: Send>(
     chunks3_pooled(pool, size, a, b, c, f)
 }
 
-/// [`chunks3_of`]'s walk, on the pool if `pool` (the same chunks either way; a gather passes
-/// [`gather_pool`]).
+/// [`chunks3_of`]'s walk, on the pool if `pool` (see [`chunks2_pooled`]).
 #[inline]
 pub(crate) fn chunks3_pooled<A: Send, B: Send, C: Send>(
     pool: bool,

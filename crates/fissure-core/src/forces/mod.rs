@@ -247,8 +247,8 @@ pub(crate) fn add_corners<R: Real>(f: R::V, m: &Model<R>, s: &ForceScratch<R>, i
 /// The gas's push on particle `i` through its triangles \[N\]: `P/6 · Σ cross` over its row, one multiply by its
 /// body's `P/6` (a triangle's body is its particles': a model invariant) instead of one per triangle with a look-up
 /// of the triangle's body. On the 10,242-vertex ball with gas (a probe of the harness's `terms` model, two
-/// threads, 2026-11-24) the gather went 84 → 69 µs a step, against 44 µs without gas. The per-corner form `cross · P/6` ([`pressure::corner_force`]) differs from it by
-/// rounding only.
+/// threads, 2026-11-24) the gather went 84 → 69 µs a step, against 44 µs without gas. The per-corner form
+/// `cross · P/6` ([`pressure::corner_force`]) differs from it by rounding only.
 #[inline(always)]
 pub(crate) fn pressure_share<R: Real>(m: &Model<R>, s: &ForceScratch<R>, i: usize) -> R::V {
     let c = m.particle_tris.row(i).iter().fold(R::V::ZERO, |c, &t| c + s.tri_cross[t as usize]);

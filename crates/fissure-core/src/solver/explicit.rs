@@ -11,13 +11,13 @@ pub(super) struct Rk4Scratch<R: Real> {
     pub(super) av: Vec<R::V>,
 }
 
-/// Particles per piece of a gather pass handed to the pool (see [`par::chunks2_work`]): small enough that two
+/// Particles per piece of a gather pass handed to the pool (see [`par::gather_pool`]): small enough that two
 /// threads share a 10,242-vertex ball's 20 pieces evenly (at 2,048 they split its 5 pieces 3 to 2).
 const GATHER_CHUNK: usize = 512;
 
 /// What a gather over `m`'s particles costs, in spring-sized units: a particle, its spring entries and (with
 /// triangle terms) its triangle entries.
-pub(super) fn gather_work<R: Real>(m: &Model<R>, surface: bool) -> usize {
+fn gather_work<R: Real>(m: &Model<R>, surface: bool) -> usize {
     m.particle_count() + 2 * m.spring_count() + if surface { 3 * m.tri_count() } else { 0 }
 }
 
@@ -36,8 +36,8 @@ impl<R: Real> CpuSolver<R> {
         }
         let t = Instant::now();
         let f = &self.f;
-        let work = gather_work(m, surface);
-        par::chunks2_work(work, GATHER_CHUNK, &mut s.particle_q, &mut s.particle_qd, |start, qs, vs| {
+        let pool = par::gather_pool(gather_work(m, surface));
+        par::chunks2_pooled(pool, GATHER_CHUNK, &mut s.particle_q, &mut s.particle_qd, |start, qs, vs| {
             let mut bad = false;
             for k in 0..qs.len() {
                 let i = start + k;
@@ -71,9 +71,9 @@ impl<R: Real> CpuSolver<R> {
         let f = &self.f;
         let gas = surface && m.has_pressure();
         // Each spring entry is walked for two sums here.
-        let work = gather_work(m, surface) + 2 * m.spring_count();
+        let pool = par::gather_pool(gather_work(m, surface) + 2 * m.spring_count());
         par::chunks3_pooled(
-            par::gather_pool(work),
+            pool,
             GATHER_CHUNK,
             &mut s.particle_q,
             &mut s.particle_qd,
@@ -96,6 +96,7 @@ impl<R: Real> CpuSolver<R> {
                     }
                     if surface {
                         // Reached without wind only (`fuse_loads`): the triangles' forces are the gas's.
+                        debug_assert!(!f.tri_f_written);
                         let share = pressure_share(m, f, i);
                         ft += share;
                         if gas {
@@ -243,9 +244,9 @@ impl<R: Real> CpuSolver<R> {
         let t = Instant::now();
         let f = &self.f;
         let mut v_pred = std::mem::take(&mut self.v_pred);
-        let work = gather_work(m, surface);
+        let pool = par::gather_pool(gather_work(m, surface));
         par::chunks3_pooled(
-            par::gather_pool(work),
+            pool,
             GATHER_CHUNK,
             &mut s.particle_q,
             &mut s.particle_qd,
@@ -276,7 +277,7 @@ impl<R: Real> CpuSolver<R> {
         self.v_pred = v_pred;
         let t = Instant::now();
         let f = &self.f;
-        par::chunks_work(gather_work(m, surface), GATHER_CHUNK, &mut s.particle_qd, |start, vs| {
+        par::chunks_pooled(par::gather_pool(gather_work(m, surface)), GATHER_CHUNK, &mut s.particle_qd, |start, vs| {
             let mut bad = false;
             for k in 0..vs.len() {
                 let i = start + k;
@@ -306,7 +307,7 @@ impl<R: Real> CpuSolver<R> {
             let f = &self.f;
             let ws = weight[stage];
             let first = stage == 0;
-            let work = gather_work(m, surface);
+            let pool = par::gather_pool(gather_work(m, surface));
             // Slopes of this stage: kx = stage velocity, kv = acceleration. Accumulate, then either set up the next
             // stage or (last stage) apply the weighted sum to the state.
             let slope = |i: usize, vt: R::V| -> (R::V, R::V) {
@@ -316,8 +317,8 @@ impl<R: Real> CpuSolver<R> {
             if stage < 3 {
                 let cn = c_next[stage];
                 let (x0, v0) = (&s.particle_q, &s.particle_qd);
-                par::chunks4_work(
-                    work,
+                par::chunks4_pooled(
+                    pool,
                     GATHER_CHUNK,
                     &mut rk.xt,
                     &mut rk.vt,
@@ -341,8 +342,8 @@ impl<R: Real> CpuSolver<R> {
                 );
             } else {
                 let vt = &rk.vt;
-                par::chunks4_work(
-                    work,
+                par::chunks4_pooled(
+                    pool,
                     GATHER_CHUNK,
                     &mut s.particle_q,
                     &mut s.particle_qd,
