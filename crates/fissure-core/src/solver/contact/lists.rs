@@ -7,6 +7,8 @@ use super::*;
 /// (2026-11-23): from 1,024, the fracture scene's builds woke the pool for ~1,400 triangles and spent more in
 /// wake-ups (`sched_yield` 5 % of its run) than they saved.
 const PAR_BUILD: usize = 8 * TASK;
+/// A hot vertex's search in a refresh costs a few microseconds: parallel from this many.
+const PAR_HOT: usize = TASK;
 
 impl<R: Real> ContactScratch<R> {
     /// Finds every allowed pair closer than `radius` at `x0` (the Verlet list).
@@ -99,29 +101,67 @@ impl<R: Real> ContactScratch<R> {
             let b = m.particle_body[v as usize];
             active[b as usize] && worth(b, p - pad, p + pad)
         };
-        self.grid.build(cell, parts.len(), |k| {
-            let (v, p) = (parts[k], x(parts[k]));
-            in_grid(v, p).then_some(p)
-        });
-        // Edge midpoints in cells of `radius + l_max`: an edge's query box (its box grown by the reach below)
-        // spans at most 3 cells a side.
         self.eboxes.clear();
         self.eboxes.extend(edges.iter().map(|&[i, j]| {
             let (p, q) = (x(i), x(j));
             [p.min(q), p.max(q)]
         }));
-        let eboxes = &self.eboxes;
-        self.egrid.build(radius + l_max, edges.len(), |k| {
-            let [lo, hi] = eboxes[k];
-            let b = m.particle_body[edges[k][0] as usize];
-            (active[b as usize] && worth(b, lo - pad, hi + pad)).then(|| 0.5 * (lo + hi))
-        });
         // A triangle's search box, and whether a build searches from it.
         let tri_box = |[a, b, c]: [DVec3; 3]| (a.min(b).min(c) - radius, a.max(b).max(c) + radius);
         let searched = |t: u32, (lo, hi): (DVec3, DVec3)| {
             let tb = m.tri_body[t as usize];
             active[tb as usize] && worth(tb, lo, hi)
         };
+        // A refresh's triangle centroids (of the searched triangles), and how far a triangle's points lie from
+        // its centroid at most (a corner is the farthest: distance to a point is convex).
+        self.centroids.clear();
+        let mut c_reach = 0.0f64;
+        if hot.is_some() {
+            self.centroids.extend(el.tris.iter().map(|&t| {
+                let corners = m.tri_indices[t as usize].map(x);
+                let c = corners.iter().sum::<DVec3>() / 3.0;
+                c_reach = corners.iter().fold(c_reach, |r, &p| r.max((p - c).length()));
+                searched(t, tri_box(corners)).then_some(c)
+            }));
+        }
+        // The grids, each over its own elements (in parallel: a build is a counting sort in index order, the
+        // same whichever thread runs it). Edge midpoints go in cells of `radius + l_max`: an edge's query box
+        // (its box grown by the reach below) spans at most 3 cells a side.
+        let (eboxes, centroids) = (&self.eboxes, &self.centroids);
+        let vertices = |g: &mut HashGrid| {
+            g.build(cell, parts.len(), |k| {
+                let (v, p) = (parts[k], x(parts[k]));
+                in_grid(v, p).then_some(p)
+            })
+        };
+        let midpoints = |g: &mut HashGrid| {
+            g.build(radius + l_max, edges.len(), |k| {
+                let [lo, hi] = eboxes[k];
+                let b = m.particle_body[edges[k][0] as usize];
+                (active[b as usize] && worth(b, lo - pad, hi + pad)).then(|| 0.5 * (lo + hi))
+            })
+        };
+        let tgrid_cell = cell;
+        let tri_centroids = |g: &mut HashGrid| {
+            if hot.is_some() {
+                g.build(tgrid_cell, centroids.len(), |k| centroids[k]);
+            }
+        };
+        let (grid, egrid, tgrid) = (&mut self.grid, &mut self.egrid, &mut self.tgrid);
+        #[cfg(feature = "parallel")]
+        if parts.len() + edges.len() >= PAR_BUILD && crate::par::pool_has_threads() {
+            rayon::join(|| vertices(grid), || rayon::join(|| midpoints(egrid), || tri_centroids(tgrid)));
+        } else {
+            vertices(grid);
+            midpoints(egrid);
+            tri_centroids(tgrid);
+        }
+        #[cfg(not(feature = "parallel"))]
+        {
+            vertices(grid);
+            midpoints(egrid);
+            tri_centroids(tgrid);
+        }
         // A refresh searches again from the triangles with a hot corner and the edges with a hot end, and from
         // each hot vertex the triangles (without a hot corner) whose centroids are within `radius + l_max` of it
         // (every triangle with a point within `radius` of it): cheaper than searching from every triangle near a
@@ -131,11 +171,6 @@ impl<R: Real> ContactScratch<R> {
         if let Some(hot) = hot {
             is_hot = vec![false; m.particle_count()];
             hot.iter().for_each(|&i| is_hot[i as usize] = true);
-            self.tgrid.build(cell, el.tris.len(), |k| {
-                let t = el.tris[k];
-                let corners = m.tri_indices[t as usize].map(x);
-                searched(t, tri_box(corners)).then(|| corners.iter().sum::<DVec3>() / 3.0)
-            });
             tmask = vec![false; m.tri_count()];
             for &t in &el.tris {
                 if m.tri_indices[t as usize].iter().any(|&i| is_hot[i as usize]) {
@@ -186,10 +221,11 @@ impl<R: Real> ContactScratch<R> {
         });
         if let Some(hot) = hot {
             // From each hot vertex, the same tests as from a triangle (the vertex in the grid, the triangle in the
-            // centroid grid, which holds the searched ones, then `vt_near`), so the same pairs.
+            // centroid grid, which holds the searched ones, then `vt_near`), so the same pairs. A triangle with a
+            // point within `radius` of the vertex has its centroid within `radius + c_reach`.
             let (tgrid, tmask) = (&self.tgrid, &tmask);
-            let reach = DVec3::splat(radius + l_max);
-            extend_chunks(&mut vt, hot, PAR_BUILD, |hot, out| {
+            let reach = DVec3::splat(radius + c_reach);
+            extend_chunks(&mut vt, hot, PAR_HOT, |hot, out| {
                 for &v in hot {
                     let p = x(v);
                     if !in_grid(v, p) {

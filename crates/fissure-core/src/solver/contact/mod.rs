@@ -23,6 +23,13 @@ const HOT: f64 = 0.25;
 /// against 2 rebuilds the folding 128² cloth's list 101 times in 600 substeps instead of 74, but its lists are a
 /// third the size: contact 14.2–14.6 ms per step against 16.7–17.2; the fracture and balloons scenes within noise.
 const SKIN: f64 = 1.5;
+/// A kept list whose search radius exceeds this multiple of the one the step wants is built again. The search
+/// radius follows the fastest particle of the step that built the list: on the folding 128² cloth (`cargo bench
+/// --bench contact`, 2026-11-24) a list built while a corner whipped round at 16 m/s had a radius of 12.2 mm
+/// and 855,074 candidates when the step wanted 6.9 mm; the cloth's own neighbours two rings away (7–10 mm at
+/// rest) fill a list past ~7 mm. Contact per substep: never rebuilt for size 10.1–11.0 ms (69 refreshes in 600
+/// substeps), 1.3× 7.2 ms (130,414 candidates), 1.15× 6.3 ms (27,268), 1.05× 6.8 ms (more builds).
+const SHRINK: f64 = 1.15;
 /// Elements per parallel task of the candidate search.
 const TASK: usize = 512;
 
@@ -113,6 +120,8 @@ pub(super) struct ContactScratch<R: Real> {
     egrid: HashGrid,
     /// Triangle centroids (refreshes only).
     tgrid: HashGrid,
+    /// The searched triangles' centroids (refreshes only; `None`: not searched).
+    centroids: Vec<Option<DVec3>>,
     /// Each edge's box at `x0` when the candidates were found (one contiguous load per edge a query visits).
     eboxes: Vec<[DVec3; 2]>,
     pub stats: ContactStats,
@@ -292,13 +301,19 @@ impl<R: Real> CpuSolver<R> {
         // Pairs missing from the list were `radius` apart when it was built and have closed in by at most
         // 2 drift since; when that is not enough, by at most what their bodies moved relative to each other
         // (a piece riding on the ball it came from, a cloth falling as a whole, does not force a rebuild).
-        let valid =
-            !c.rebuild_always && fresh && (c.radius - 2.0 * drift >= r || still_valid(m, &mv, &c.gaps, c.radius, r));
+        // A list built at a passing peak of speed (a corner whipping round) is kept no longer than it is needed:
+        // past SHRINK times the radius this step wants, it is built again at that radius.
+        let oversize = c.radius > SHRINK * (SKIN * r + h_max);
+        let valid = !c.rebuild_always
+            && fresh
+            && !oversize
+            && (c.radius - 2.0 * drift >= r || still_valid(m, &mv, &c.gaps, c.radius, r));
         // Slack `(radius - r) / 4`: after a refresh no particle has drifted more, and the list stays valid until
         // one drifts `(radius - r) / 2`. Measured on the folding 128² cloth (`cargo bench --bench contact`,
         // 2026-11-23): slack 0.25 × → contact 10.0–10.9 ms per step (96 refreshes, no build, in 600 substeps);
         // 0.15 × → 10.5–12.3 ms; 0.4 × → 14.6–15.4 ms (259 refreshes); builds alone 11.9–12.7 ms.
-        let refreshed = !valid && fresh && !c.rebuild_always && c.radius > r && c.refresh(m, 0.25 * (c.radius - r));
+        let refreshed =
+            !valid && !oversize && fresh && !c.rebuild_always && c.radius > r && c.refresh(m, 0.25 * (c.radius - r));
         if !valid && !refreshed {
             c.build(m, SKIN * r + h_max);
         }
