@@ -245,7 +245,8 @@ const SPAN: usize = 64;
 /// `cross`: the triangles' cross vectors (this chunk's), read, or with `form_cross` formed here from the
 /// positions the pass loads anyway and stored (a model without gas: no pass of its own for them; 128² cloth in
 /// wind, harness `terms`, 2026-11-24: the surface stage 149–150 → 140–142 µs a step).
-/// Compiled for AVX2 when the CPU has it (same bits: see `run_block_dispatch`).
+/// Compiled for AVX-512 or AVX2 when the CPU has them (same bits: see `crate::isa`; AVX-512 measured on the 128²
+/// cloth in wind, harness `terms`, 2026-11-24: the surface stage 141–144 → 130–131 µs).
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn wind_chunk<R: Real>(
     m: &Model<R>,
@@ -261,12 +262,35 @@ pub(crate) fn wind_chunk<R: Real>(
 ) {
     #[cfg(target_arch = "x86_64")]
     {
+        if crate::isa::avx512() {
+            // SAFETY: the CPU supports AVX-512 F and VL, checked just above.
+            unsafe { wind_chunk_avx512(m, q, qd, cross, form_cross, pressure, w, rho_half, start, out) };
+            return;
+        }
         if std::arch::is_x86_feature_detected!("avx2") {
             // SAFETY: the CPU supports AVX2, checked just above.
             unsafe { wind_chunk_avx2(m, q, qd, cross, form_cross, pressure, w, rho_half, start, out) };
             return;
         }
     }
+    wind_chunk_impl(m, q, qd, cross, form_cross, pressure, w, rho_half, start, out)
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx512f,avx512vl")]
+#[allow(clippy::too_many_arguments)]
+fn wind_chunk_avx512<R: Real>(
+    m: &Model<R>,
+    q: &[R::V],
+    qd: &[R::V],
+    cross: &mut [R::V],
+    form_cross: bool,
+    pressure: &[R],
+    w: &PreparedWind<R>,
+    rho_half: R,
+    start: usize,
+    out: &mut [R::V],
+) {
     wind_chunk_impl(m, q, qd, cross, form_cross, pressure, w, rho_half, start, out)
 }
 

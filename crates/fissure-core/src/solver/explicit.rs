@@ -370,7 +370,7 @@ impl<R: Real> CpuSolver<R> {
     }
 }
 
-/// [`update`] compiled for AVX2 when the CPU has it (the same bits; see `run_block_dispatch`).
+/// [`update`] compiled for AVX-512 or AVX2 when the CPU has them (the same bits; see `crate::isa`).
 #[allow(clippy::too_many_arguments)]
 #[inline]
 fn update_dispatch<R: Real>(
@@ -385,11 +385,31 @@ fn update_dispatch<R: Real>(
 ) -> bool {
     #[cfg(target_arch = "x86_64")]
     {
+        if crate::isa::avx512() {
+            // SAFETY: the CPU supports AVX-512 F and VL, checked just above.
+            return unsafe { update_avx512(m, q, qd, p0, fs, qs, vs, dt) };
+        }
         if std::arch::is_x86_feature_detected!("avx2") {
             // SAFETY: the CPU supports AVX2, checked just above.
             return unsafe { update_avx2(m, q, qd, p0, fs, qs, vs, dt) };
         }
     }
+    update(m, q, qd, p0, fs, qs, vs, dt)
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx512f,avx512vl")]
+#[allow(clippy::too_many_arguments)]
+fn update_avx512<R: Real>(
+    m: &Model<R>,
+    q: &[R::V],
+    qd: &[R::V],
+    p0: usize,
+    fs: &[R::V],
+    qs: &mut [R::V],
+    vs: &mut [R::V],
+    dt: R,
+) -> bool {
     update(m, q, qd, p0, fs, qs, vs, dt)
 }
 
