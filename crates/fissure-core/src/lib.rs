@@ -11,7 +11,7 @@ pub mod error;
 pub mod forces;
 pub mod fracture;
 pub mod integrator;
-mod isa;
+pub mod isa;
 pub mod mesh;
 pub mod model;
 mod par;

@@ -177,7 +177,7 @@ fn spring_chunk_dispatch<R: Real, const PROJECTED: bool, const MEASURE: bool>(
 ) {
     #[cfg(target_arch = "x86_64")]
     {
-        if std::arch::is_x86_feature_detected!("avx2") {
+        if crate::isa::avx2() {
             // SAFETY: the CPU supports AVX2, checked just above.
             unsafe { spring_chunk_avx2::<R, PROJECTED, MEASURE>(m, q, qd, start, out, strain, els) };
             return;
@@ -541,7 +541,7 @@ pub(crate) fn run_block_dispatch<R: Real, const PROJECTED: bool>(
             unsafe { run_block_avx512::<R, PROJECTED>(m, runs, q, qd, p0, block, strain) };
             return;
         }
-        if std::arch::is_x86_feature_detected!("avx2") {
+        if crate::isa::avx2() {
             // SAFETY: the CPU supports AVX2, checked just above.
             unsafe { run_block_avx2::<R, PROJECTED>(m, runs, q, qd, p0, block, strain) };
             return;

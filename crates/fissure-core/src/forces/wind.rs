@@ -267,7 +267,7 @@ pub(crate) fn wind_chunk<R: Real>(
             unsafe { wind_chunk_avx512(m, q, qd, cross, form_cross, pressure, w, rho_half, start, out) };
             return;
         }
-        if std::arch::is_x86_feature_detected!("avx2") {
+        if crate::isa::avx2() {
             // SAFETY: the CPU supports AVX2, checked just above.
             unsafe { wind_chunk_avx2(m, q, qd, cross, form_cross, pressure, w, rho_half, start, out) };
             return;

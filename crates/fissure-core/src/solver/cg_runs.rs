@@ -186,7 +186,7 @@ impl<R: Real> CpuSolver<R> {
         let (tol, max) = (self.config.cg_tolerance, self.config.cg_max_iterations);
         #[cfg(target_arch = "x86_64")]
         {
-            if std::arch::is_x86_feature_detected!("avx2") {
+            if crate::isa::avx2() {
                 // SAFETY: the CPU supports AVX2, checked just above.
                 let (result, stats) = unsafe { solve_avx2(m, im, pressure, guess, tol, max) };
                 self.cg = stats;
@@ -392,7 +392,7 @@ fn dot<R: Real>(a: &Soa<R>, b: &Soa<R>) -> R {
 fn spring_product_dispatch<R: Real>(cg: &RunsCg<R>, out: &mut Soa<R>, y: &mut [Vec<R>; 3]) {
     #[cfg(target_arch = "x86_64")]
     {
-        if std::arch::is_x86_feature_detected!("avx2") {
+        if crate::isa::avx2() {
             // SAFETY: the CPU supports AVX2, checked just above.
             unsafe { spring_product_avx2(cg, out, y) };
             return;

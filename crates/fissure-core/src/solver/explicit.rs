@@ -389,7 +389,7 @@ fn update_dispatch<R: Real>(
             // SAFETY: the CPU supports AVX-512 F and VL, checked just above.
             return unsafe { update_avx512(m, q, qd, p0, fs, qs, vs, dt) };
         }
-        if std::arch::is_x86_feature_detected!("avx2") {
+        if crate::isa::avx2() {
             // SAFETY: the CPU supports AVX2, checked just above.
             return unsafe { update_avx2(m, q, qd, p0, fs, qs, vs, dt) };
         }

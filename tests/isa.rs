@@ -1,0 +1,64 @@
+//! Every instruction set the vector kernels can run on (`fissure::isa`) gives the same bits: the cloth in wind
+//! (the wind pass), the ball drop (the per-spring kernel), a grid cloth under symplectic Euler (the fused
+//! grid-run spring kernel and the update after it) and under implicit Euler (the solver's runs), each run once
+//! per set this CPU has, their final states compared bit for bit. One test in its own binary: the cap it sets holds for the whole process.
+
+use fissure::isa::{self, Isa};
+use fissure::scene::Scene;
+use fissure::*;
+use std::path::Path;
+
+/// The bits of the final positions and velocities.
+fn bits(w: &World<f32>) -> Vec<u32> {
+    let s = &w.state;
+    s.particle_q.iter().chain(&s.particle_qd).flat_map(|v| v.to_array().map(f32::to_bits)).collect()
+}
+
+fn scene(file: &str) -> Vec<u32> {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes").join(file);
+    let scene = Scene::load(&path).expect("scene loads");
+    let mut world: World<f32> = scene.world().expect("scene builds");
+    world.advance(scene.solver.duration.min(0.5), scene.solver.dt).expect("scene runs");
+    bits(&world)
+}
+
+/// The benchmark cloth (springs and gravity only: the fused run kernel and update) with `integrator`.
+fn grid_cloth(integrator: Integrator, duration: f64, dt: f64) -> Vec<u32> {
+    let model = scenes::benchmark_cloth(24).expect("cloth builds").finalize().expect("cloth finalizes");
+    let mut world: World<f32> = World::new(model, SolverConfig::with(integrator));
+    world.advance(duration, dt).expect("cloth runs");
+    bits(&world)
+}
+
+#[test]
+fn every_instruction_set_gives_the_same_bits() {
+    let sets = isa::available();
+    assert_eq!(sets[0], Isa::Baseline);
+    type Run = (&'static str, fn() -> Vec<u32>);
+    let runs: [Run; 4] = [
+        ("cloth_wind.toml", || scene("cloth_wind.toml")),
+        ("ball_drop.toml", || scene("ball_drop.toml")),
+        ("24² cloth, symplectic Euler", || grid_cloth(Integrator::SymplecticEuler, 0.1, 2e-4)),
+        ("24² cloth, implicit Euler", || grid_cloth(Integrator::ImplicitEuler, 0.25, 1.0 / 60.0)),
+    ];
+    for (name, run) in runs {
+        let mut first: Option<(Isa, Vec<u32>)> = None;
+        for &set in &sets {
+            isa::set_limit(set);
+            let got = run();
+            match &first {
+                None => first = Some((set, got)),
+                Some((set0, want)) => {
+                    let differ = want.iter().zip(&got).filter(|(a, b)| a != b).count();
+                    assert!(
+                        differ == 0,
+                        "{name}: {differ} of {} values differ between {set0:?} and {set:?}",
+                        got.len()
+                    );
+                }
+            }
+        }
+    }
+    isa::set_limit(Isa::Avx512);
+    eprintln!("compared on {sets:?}");
+}
