@@ -42,17 +42,22 @@ static LIMIT: AtomicU8 = AtomicU8::new(Isa::Avx512 as u8);
 
 /// The sets this CPU has, narrowest first (always starting with [`Isa::Baseline`]).
 pub fn available() -> Vec<Isa> {
-    let mut sets = vec![Isa::Baseline];
-    #[cfg(target_arch = "x86_64")]
-    {
-        if std::arch::is_x86_feature_detected!("avx2") {
-            sets.push(Isa::Avx2);
+    [Isa::Baseline, Isa::Avx2, Isa::Avx512].into_iter().filter(|&s| detected(s)).collect()
+}
+
+/// Whether the CPU has `isa` (detected once, cached by std).
+fn detected(isa: Isa) -> bool {
+    match isa {
+        Isa::Baseline => true,
+        #[cfg(target_arch = "x86_64")]
+        Isa::Avx2 => std::arch::is_x86_feature_detected!("avx2"),
+        #[cfg(target_arch = "x86_64")]
+        Isa::Avx512 => {
+            std::arch::is_x86_feature_detected!("avx512f") && std::arch::is_x86_feature_detected!("avx512vl")
         }
-        if std::arch::is_x86_feature_detected!("avx512f") && std::arch::is_x86_feature_detected!("avx512vl") {
-            sets.push(Isa::Avx512);
-        }
+        #[cfg(not(target_arch = "x86_64"))]
+        _ => false,
     }
-    sets
 }
 
 /// Caps the instruction sets the kernels may use, for the whole process, and returns the cap before (the default
@@ -72,14 +77,12 @@ pub fn limit() -> Isa {
 #[cfg(target_arch = "x86_64")]
 #[inline]
 pub(crate) fn avx512() -> bool {
-    LIMIT.load(Ordering::Relaxed) >= Isa::Avx512 as u8
-        && std::arch::is_x86_feature_detected!("avx512f")
-        && std::arch::is_x86_feature_detected!("avx512vl")
+    LIMIT.load(Ordering::Relaxed) >= Isa::Avx512 as u8 && detected(Isa::Avx512)
 }
 
 /// Whether the kernels may use AVX2 (see [`avx512`]).
 #[cfg(target_arch = "x86_64")]
 #[inline]
 pub(crate) fn avx2() -> bool {
-    LIMIT.load(Ordering::Relaxed) >= Isa::Avx2 as u8 && std::arch::is_x86_feature_detected!("avx2")
+    LIMIT.load(Ordering::Relaxed) >= Isa::Avx2 as u8 && detected(Isa::Avx2)
 }
