@@ -67,11 +67,6 @@ pub fn set_limit(isa: Isa) -> Isa {
     Isa::from_u8(LIMIT.swap(isa as u8, Ordering::Relaxed))
 }
 
-/// The cap set by [`set_limit`].
-pub fn limit() -> Isa {
-    Isa::from_u8(LIMIT.load(Ordering::Relaxed))
-}
-
 /// Whether the kernels may use AVX-512 F and VL: the CPU has them (detected once, cached by std) and the cap
 /// allows them.
 #[cfg(target_arch = "x86_64")]

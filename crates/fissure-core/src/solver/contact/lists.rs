@@ -141,29 +141,26 @@ impl<R: Real> ContactScratch<R> {
                 (active[b as usize] && worth(b, lo - pad, hi + pad)).then(|| 0.5 * (lo + hi))
             })
         };
-        let tgrid_cell = cell;
         let tri_centroids = |g: &mut HashGrid| {
             if hot.is_some() {
-                g.build(tgrid_cell, centroids.len(), |k| centroids[k]);
+                g.build(cell, centroids.len(), |k| centroids[k]);
             }
         };
         let (grid, egrid, tgrid) = (&mut self.grid, &mut self.egrid, &mut self.tgrid);
         #[cfg(feature = "parallel")]
-        if parts.len() + edges.len() >= PAR_BUILD && crate::par::pool_has_threads() {
+        let parallel = parts.len() + edges.len() >= PAR_BUILD && crate::par::pool_has_threads();
+        #[cfg(not(feature = "parallel"))]
+        let parallel = false;
+        if parallel {
+            #[cfg(feature = "parallel")]
             rayon::join(|| vertices(grid), || rayon::join(|| midpoints(egrid), || tri_centroids(tgrid)));
         } else {
             vertices(grid);
             midpoints(egrid);
             tri_centroids(tgrid);
         }
-        #[cfg(not(feature = "parallel"))]
-        {
-            vertices(grid);
-            midpoints(egrid);
-            tri_centroids(tgrid);
-        }
         // A refresh searches again from the triangles with a hot corner and the edges with a hot end, and from
-        // each hot vertex the triangles (without a hot corner) whose centroids are within `radius + l_max` of it
+        // each hot vertex the triangles (without a hot corner) whose centroids are within `radius + c_reach` of it
         // (every triangle with a point within `radius` of it): cheaper than searching from every triangle near a
         // hot vertex, since a hot vertex's query visits the triangles near it once.
         let (mut tris_again, mut edges_again) = (Vec::new(), Vec::new());
