@@ -379,8 +379,25 @@ impl PreparedCollider {
         }
     }
 
-    /// See [`Collider::resolve`]; `c` is the collider this was prepared from.
-    #[inline]
+    /// The contact point and normal of a shape without a closed form (through the local frame and parry3d), or
+    /// `None` when `x` is clear of it. Out of line: it would make every caller's frame large for the plane's and
+    /// the ball's few instructions.
+    #[inline(never)]
+    fn contact_general(&self, c: &Collider, x: Vec3) -> Option<(Vec3, Vec3)> {
+        if !self.aabb.contains_local_point(x) {
+            return None;
+        }
+        let local = self.pose.inverse_transform_point(x);
+        let (proj, inside, n_local) = self.closest(c, local);
+        if !inside && (local - proj).length_squared() >= c.margin * c.margin {
+            return None;
+        }
+        Some((self.pose.transform_point(proj + n_local * c.margin), self.pose.rotation * n_local))
+    }
+
+    /// See [`Collider::resolve`]; `c` is the collider this was prepared from. Inlined into the collision pass:
+    /// a call cost more than the plane's test (measured 2026-11-25 on resting contacts, see `solver/collide.rs`).
+    #[inline(always)]
     pub fn resolve(&self, c: &Collider, x: Vec3, v: Vec3) -> Option<(Vec3, Vec3)> {
         // The plane and the ball in world space: the same formulas as `closest` in the local frame, without the
         // two pose transforms. Measured on the harness's `terms` cloth (128², resting on the ground and a ball),
@@ -408,17 +425,7 @@ impl PreparedCollider {
                 let n = if l > 0.0 { d / l } else { Vec3::Y };
                 (centre + n * (r + c.margin), n)
             }
-            Quick::None => {
-                if !self.aabb.contains_local_point(x) {
-                    return None;
-                }
-                let local = self.pose.inverse_transform_point(x);
-                let (proj, inside, n_local) = self.closest(c, local);
-                if !inside && (local - proj).length_squared() >= c.margin * c.margin {
-                    return None;
-                }
-                (self.pose.transform_point(proj + n_local * c.margin), self.pose.rotation * n_local)
-            }
+            Quick::None => self.contact_general(c, x)?,
         };
         let v_col = c.velocity_at(&self.pose, x_new);
         let v_rel = v - v_col;

@@ -14,8 +14,12 @@ const PUSHES: usize = 8;
 /// none touched it. `pushed` receives the positions after each push, its flag cleared if they overflow it.
 /// Inlined: most calls end at the plane's or the ball's first test (see `PreparedCollider::resolve`), and a
 /// call of its own cost more than that test (the arguments stored and reloaded, the push list set up).
+/// `TRACK`: record the pushes (only a block that tests a subset of the colliders checks them afterwards; a block
+/// that tests them all skips the bookkeeping). Measured on the 2,562-vertex ball after 100 core splits, ~400 of
+/// its particles resting on the ground, one thread, 2026-11-25: the collide stage 18.3 → 15.3 µs a step, and
+/// 11.6 µs with the plane's and the ball's resolve inlined (`PreparedCollider::resolve`).
 #[inline(always)]
-fn sweeps(
+fn sweeps<const TRACK: bool>(
     prepared: &[crate::collision::PreparedCollider],
     colliders: &[crate::collision::Collider],
     ids: &[u32],
@@ -33,10 +37,10 @@ fn sweeps(
                 x = x2;
                 v = v2;
                 any = true;
-                if pushed.1 < PUSHES {
+                if TRACK && pushed.1 < PUSHES {
                     pushed.0[pushed.1] = x;
                     pushed.1 += 1;
-                } else {
+                } else if TRACK {
                     pushed.2 = false;
                 }
             }
@@ -69,7 +73,9 @@ impl<R: Real> CpuSolver<R> {
         let t0 = Instant::now();
         self.prepare_colliders(m, state.time);
         let (prepared, every) = (&self.colliders[..], &self.collider_ids[..]);
-        par::chunks2(&mut state.particle_q, &mut state.particle_qd, |start, qs, vs| {
+        // Each particle's contact is its own: on the team in finer pieces (`par::piece`, a multiple of the block).
+        let (pool, size) = (par::is_pooled(state.particle_q.len()), par::piece(par::CHUNK));
+        par::chunks2_pooled(pool, size, &mut state.particle_q, &mut state.particle_qd, |start, qs, vs| {
             if collide_chunk(m, prepared, every, start, qs, vs) {
                 blown.store(true, Ordering::Relaxed);
             }
@@ -119,24 +125,37 @@ pub(super) fn collide_chunk<R: Real>(
             }
             all = count == prepared.len();
         }
-        let near: &[u32] = if all { every } else { &near[..count] };
+        if all {
+            // Every collider is near: nothing to check afterwards.
+            for k in 0..qb.len() {
+                if inv_mass[p0 + k] == R::ZERO {
+                    continue;
+                }
+                let (x, v) = (qb[k].to_vec3(), vb[k].to_vec3());
+                let mut unused = ([glam::Vec3::ZERO; PUSHES], 0usize, true);
+                let Some(out) = sweeps::<false>(prepared, colliders, every, x, v, &mut unused) else { continue };
+                qb[k] = R::V::from_vec3(out.0);
+                vb[k] = R::V::from_vec3(out.1);
+                bad |= !(qb[k].is_finite() && vb[k].is_finite());
+            }
+            continue;
+        }
         for k in 0..qb.len() {
             if inv_mass[p0 + k] == R::ZERO {
                 continue;
             }
             let (x, v) = (qb[k].to_vec3(), vb[k].to_vec3());
             let mut pushed = ([glam::Vec3::ZERO; PUSHES], 0usize, true);
-            let Some(mut out) = sweeps(prepared, colliders, near, x, v, &mut pushed) else { continue };
-            if !all {
-                let (list, n, complete) = pushed;
-                let far_clear = complete
-                    && (0..prepared.len())
-                        .filter(|c| !near.contains(&(*c as u32)))
-                        .all(|c| list[..n].iter().all(|&xp| prepared[c].resolve(&colliders[c], xp, v).is_none()));
-                if !far_clear {
-                    out = sweeps(prepared, colliders, every, x, v, &mut pushed)
-                        .expect("a particle a near collider touches is touched by the full resolve");
-                }
+            let near = &near[..count];
+            let Some(mut out) = sweeps::<true>(prepared, colliders, near, x, v, &mut pushed) else { continue };
+            let (list, n, complete) = pushed;
+            let far_clear = complete
+                && (0..prepared.len())
+                    .filter(|c| !near.contains(&(*c as u32)))
+                    .all(|c| list[..n].iter().all(|&xp| prepared[c].resolve(&colliders[c], xp, v).is_none()));
+            if !far_clear {
+                out = sweeps::<true>(prepared, colliders, every, x, v, &mut pushed)
+                    .expect("a particle a near collider touches is touched by the full resolve");
             }
             qb[k] = R::V::from_vec3(out.0);
             vb[k] = R::V::from_vec3(out.1);
