@@ -18,6 +18,8 @@ mod par;
 pub mod real;
 pub mod solver;
 pub mod stability;
+#[cfg(feature = "parallel")]
+mod team;
 pub mod timers;
 pub mod topology;
 pub use forces::wind;

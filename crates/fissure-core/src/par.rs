@@ -4,6 +4,10 @@
 //! thread-count independent; reductions sum each fixed chunk, then the chunk sums in chunk order, so a sum has
 //! the same bits on 1 thread or 64. Small inputs run inline: forking costs microseconds.
 //!
+//! Every pass goes through [`exec`], which hands its pieces to rayon's pool for large models, to the spinning
+//! team ([`crate::team`]) for mid-sized ones stepped outside the pool, or runs them in order. On the team,
+//! element-wise passes are cut finer ([`piece`]); reductions keep their fixed chunks.
+//!
 //! Without the `parallel` feature (on by default; off for targets without threads, such as `wasm32`) every pass
 //! runs inline, over the same chunks: the same bits.
 
@@ -52,35 +56,116 @@ pub(crate) fn threads_for(n: usize, chunks: usize) -> usize {
     1
 }
 
+/// Runs `f(0) … f(pieces - 1)`, each once: on the team when this thread holds it ([`crate::team`]; from two
+/// pieces), else on rayon's pool if `pool`, else in order on this thread. The pieces' results must be their own
+/// (each writes its own elements or partial sums): then the bits do not depend on where a piece ran.
+#[inline]
+pub(crate) fn exec(pool: bool, pieces: usize, f: &(dyn Fn(usize) + Sync)) {
+    #[cfg(feature = "parallel")]
+    {
+        if pieces > 1
+            && let Some(team) = crate::team::held()
+        {
+            return team.run(pieces, f);
+        }
+        if pool {
+            (0..pieces).into_par_iter().for_each(f);
+            return;
+        }
+    }
+    let _ = pool;
+    (0..pieces).for_each(f)
+}
+
+/// Whether this thread holds the team (its passes are cut finer: see [`piece`]).
+#[inline]
+pub(crate) fn teamed() -> bool {
+    #[cfg(feature = "parallel")]
+    return crate::team::held().is_some();
+    #[cfg(not(feature = "parallel"))]
+    false
+}
+
+/// Elements per piece of a pass on the team, for passes whose results are each element's own (any cut gives the
+/// same bits): the 642-vertex ball's passes of 1,280 to 1,920 elements in pieces both threads share.
+pub(crate) const TEAM_PIECE: usize = 256;
+
+/// `size`, or [`TEAM_PIECE`] when this thread holds the team (for element-wise passes only: see [`TEAM_PIECE`]).
+#[inline]
+pub(crate) fn piece(size: usize) -> usize {
+    if teamed() { TEAM_PIECE.min(size) } else { size }
+}
+
+/// A slice cut into pieces of `size` that several threads take, each piece once ([`exec`] hands out each index
+/// once).
+pub(crate) struct Pieces<'a, T> {
+    ptr: *mut T,
+    len: usize,
+    size: usize,
+    _slice: std::marker::PhantomData<&'a mut [T]>,
+}
+
+// SAFETY: the pieces are disjoint, and `get` is called once per piece (see there).
+unsafe impl<T: Send> Send for Pieces<'_, T> {}
+unsafe impl<T: Send> Sync for Pieces<'_, T> {}
+
+impl<'a, T> Pieces<'a, T> {
+    #[inline]
+    pub(crate) fn new(data: &'a mut [T], size: usize) -> Self {
+        Pieces { ptr: data.as_mut_ptr(), len: data.len(), size: size.max(1), _slice: std::marker::PhantomData }
+    }
+
+    #[inline]
+    pub(crate) fn count(&self) -> usize {
+        self.len.div_ceil(self.size)
+    }
+
+    /// Piece `c` (`c < count()`).
+    ///
+    /// # Safety
+    /// No other reference to piece `c` may be alive: each index is taken once per pass.
+    #[inline]
+    #[allow(clippy::mut_from_ref)]
+    pub(crate) unsafe fn get(&self, c: usize) -> &'a mut [T] {
+        let start = c * self.size;
+        assert!(start < self.len);
+        // SAFETY: in bounds (above), and disjoint from every other piece; exclusive by the caller's contract.
+        unsafe { std::slice::from_raw_parts_mut(self.ptr.add(start), self.size.min(self.len - start)) }
+    }
+}
+
 /// Runs `f(start, chunk)` over `data` in fixed chunks, in parallel when there is more than one chunk.
 #[inline]
 pub(crate) fn chunks<T: Send>(data: &mut [T], f: impl Fn(usize, &mut [T]) + Sync + Send) {
     chunks_of(CHUNK, data, f)
 }
 
-/// [`chunks`] in chunks of `size` elements (the spring-run kernel's blocks, which grow with a grid's rows).
+/// [`chunks`] in chunks of `size` elements (the spring-run kernel's blocks, which grow with a grid's rows). The
+/// parallel path and the inline one cut the same chunks: kernels whose order depends on the chunking (the
+/// spring-run kernel) give the same bits either way.
 #[inline]
 pub(crate) fn chunks_of<T: Send>(size: usize, data: &mut [T], f: impl Fn(usize, &mut [T]) + Sync + Send) {
+    let pool = is_pooled(data.len());
+    chunks_pooled(pool, size, data, f)
+}
+
+/// [`pooled`], false without threads.
+#[inline]
+pub(crate) fn is_pooled(n: usize) -> bool {
     #[cfg(feature = "parallel")]
-    if pooled(data.len()) {
-        data.par_chunks_mut(size).enumerate().for_each(|(c, s)| f(c * size, s));
-        return;
+    return pooled(n);
+    #[cfg(not(feature = "parallel"))]
+    {
+        let _ = n;
+        false
     }
-    // The same fixed chunks as the parallel path: kernels whose order depends on the chunking (the spring-run
-    // kernel) give the same bits either way.
-    data.chunks_mut(size).enumerate().for_each(|(c, s)| f(c * size, s));
 }
 
 /// Like [`chunks`] over two slices of equal length walked together.
 #[inline]
 pub(crate) fn chunks2<A: Send, B: Send>(a: &mut [A], b: &mut [B], f: impl Fn(usize, &mut [A], &mut [B]) + Sync + Send) {
-    debug_assert_eq!(a.len(), b.len());
-    #[cfg(feature = "parallel")]
-    if pooled(a.len()) {
-        a.par_chunks_mut(CHUNK).zip(b.par_chunks_mut(CHUNK)).enumerate().for_each(|(c, (x, y))| f(c * CHUNK, x, y));
-        return;
-    }
-    a.chunks_mut(CHUNK).zip(b.chunks_mut(CHUNK)).enumerate().for_each(|(i, (x, y))| f(i * CHUNK, x, y));
+    let pool = is_pooled(a.len());
+    chunks2_pooled(pool, CHUNK, a, b, f)
 }
 
 /// [`chunks2`] on the pool if `pool`, in chunks of `size` (the same chunks either way). A per-particle gather
@@ -94,26 +179,18 @@ pub(crate) fn chunks2_pooled<A: Send, B: Send>(
     b: &mut [B],
     f: impl Fn(usize, &mut [A], &mut [B]) + Sync + Send,
 ) {
-    debug_assert_eq!(a.len(), b.len());
-    #[cfg(feature = "parallel")]
-    if pool {
-        a.par_chunks_mut(size).zip(b.par_chunks_mut(size)).enumerate().for_each(|(c, (x, y))| f(c * size, x, y));
-        return;
-    }
-    let _ = pool;
-    a.chunks_mut(size).zip(b.chunks_mut(size)).enumerate().for_each(|(i, (x, y))| f(i * size, x, y));
+    assert_eq!(a.len(), b.len());
+    let (pa, pb) = (Pieces::new(a, size), Pieces::new(b, size));
+    // SAFETY: `exec` runs each piece index once.
+    exec(pool, pa.count(), &|c| unsafe { f(c * size, pa.get(c), pb.get(c)) });
 }
 
 /// [`chunks2_pooled`] over one slice.
 #[inline]
 pub(crate) fn chunks_pooled<A: Send>(pool: bool, size: usize, a: &mut [A], f: impl Fn(usize, &mut [A]) + Sync + Send) {
-    #[cfg(feature = "parallel")]
-    if pool {
-        a.par_chunks_mut(size).enumerate().for_each(|(c, x)| f(c * size, x));
-        return;
-    }
-    let _ = pool;
-    a.chunks_mut(size).enumerate().for_each(|(i, x)| f(i * size, x));
+    let pa = Pieces::new(a, size);
+    // SAFETY: `exec` runs each piece index once.
+    exec(pool, pa.count(), &|c| unsafe { f(c * size, pa.get(c)) });
 }
 
 /// Whether a gather pass with `work` (in spring-sized units: a particle, a row entry) goes to the pool: from
@@ -141,18 +218,14 @@ pub(crate) const GATHER_MIN: usize = 4 * PAR_MIN;
 pub(crate) fn sum<R: Real>(n: usize, partials: &mut Vec<R>, f: impl Fn(usize) -> R + Sync + Send) -> R {
     let nc = n.div_ceil(CHUNK);
     partials.resize(nc, R::ZERO);
-    #[cfg(feature = "parallel")]
-    if pooled(n) {
-        partials.par_iter_mut().enumerate().for_each(|(c, p)| {
-            let end = ((c + 1) * CHUNK).min(n);
-            *p = (c * CHUNK..end).map(&f).fold(R::ZERO, |a, b| a + b);
-        });
-        return partials.iter().fold(R::ZERO, |a, &b| a + b);
-    }
-    // Same chunked order as the parallel path, so the bits do not depend on the size threshold either.
-    for (c, p) in partials.iter_mut().enumerate() {
-        *p = (c * CHUNK..((c + 1) * CHUNK).min(n)).map(&f).fold(R::ZERO, |a, b| a + b);
-    }
+    // The same chunks on the pool or not: the bits do not depend on the size threshold either.
+    let pp = Pieces::new(partials, 1);
+    // SAFETY: `exec` runs each piece index once.
+    exec(is_pooled(n), nc, &|c| {
+        let end = ((c + 1) * CHUNK).min(n);
+        let total = (c * CHUNK..end).map(&f).fold(R::ZERO, |a, b| a + b);
+        unsafe { pp.get(c)[0] = total };
+    });
     partials.iter().fold(R::ZERO, |a, &b| a + b)
 }
 
@@ -166,15 +239,10 @@ pub(crate) fn chunks_sums<T: Send, R: Real>(
     f: impl Fn(usize, &mut [T]) -> [R; 2] + Sync + Send,
 ) -> [R; 2] {
     partials.resize(data.len().div_ceil(CHUNK), [R::ZERO; 2]);
-    #[cfg(feature = "parallel")]
-    if pooled(data.len()) {
-        data.par_chunks_mut(CHUNK)
-            .zip(partials.par_iter_mut())
-            .enumerate()
-            .for_each(|(c, (x, p))| *p = f(c * CHUNK, x));
-        return total2(partials);
-    }
-    data.chunks_mut(CHUNK).zip(partials.iter_mut()).enumerate().for_each(|(c, (x, p))| *p = f(c * CHUNK, x));
+    let pool = is_pooled(data.len());
+    let (pd, pp) = (Pieces::new(data, CHUNK), Pieces::new(partials, 1));
+    // SAFETY: `exec` runs each piece index once.
+    exec(pool, pd.count(), &|c| unsafe { pp.get(c)[0] = f(c * CHUNK, pd.get(c)) });
     total2(partials)
 }
 
@@ -188,22 +256,13 @@ pub(crate) fn chunks3_sums<A: Send, B: Send, C: Send, R: Real>(
     partials: &mut Vec<[R; 2]>,
     f: impl Fn(usize, &mut [A], &mut [B], &mut [C]) -> [R; 2] + Sync + Send,
 ) -> [R; 2] {
-    debug_assert!(a.len() == b.len() && a.len() == c.len());
+    assert!(a.len() == b.len() && a.len() == c.len());
     partials.resize(a.len().div_ceil(CHUNK), [R::ZERO; 2]);
-    #[cfg(feature = "parallel")]
-    if pooled(a.len()) {
-        a.par_chunks_mut(CHUNK)
-            .zip(b.par_chunks_mut(CHUNK))
-            .zip(c.par_chunks_mut(CHUNK).zip(partials.par_iter_mut()))
-            .enumerate()
-            .for_each(|(i, ((x, y), (z, p)))| *p = f(i * CHUNK, x, y, z));
-        return total2(partials);
-    }
-    a.chunks_mut(CHUNK)
-        .zip(b.chunks_mut(CHUNK))
-        .zip(c.chunks_mut(CHUNK).zip(partials.iter_mut()))
-        .enumerate()
-        .for_each(|(i, ((x, y), (z, p)))| *p = f(i * CHUNK, x, y, z));
+    let pool = is_pooled(a.len());
+    let (pa, pb, pc) = (Pieces::new(a, CHUNK), Pieces::new(b, CHUNK), Pieces::new(c, CHUNK));
+    let pp = Pieces::new(partials, 1);
+    // SAFETY: `exec` runs each piece index once.
+    exec(pool, pa.count(), &|i| unsafe { pp.get(i)[0] = f(i * CHUNK, pa.get(i), pb.get(i), pc.get(i)) });
     total2(partials)
 }
 
@@ -224,21 +283,11 @@ pub(crate) fn chunks4_pooled<A: Send, B: Send, C: Send, D: Send>(
     d: &mut [D],
     f: impl Fn(usize, &mut [A], &mut [B], &mut [C], &mut [D]) + Sync + Send,
 ) {
-    #[cfg(feature = "parallel")]
-    if pool {
-        a.par_chunks_mut(size)
-            .zip(b.par_chunks_mut(size))
-            .zip(c.par_chunks_mut(size).zip(d.par_chunks_mut(size)))
-            .enumerate()
-            .for_each(|(i, ((w, x), (y, z)))| f(i * size, w, x, y, z));
-        return;
-    }
-    let _ = pool;
-    a.chunks_mut(size)
-        .zip(b.chunks_mut(size))
-        .zip(c.chunks_mut(size).zip(d.chunks_mut(size)))
-        .enumerate()
-        .for_each(|(i, ((w, x), (y, z)))| f(i * size, w, x, y, z));
+    assert!(a.len() == b.len() && a.len() == c.len() && a.len() == d.len());
+    let (pa, pb) = (Pieces::new(a, size), Pieces::new(b, size));
+    let (pc, pd) = (Pieces::new(c, size), Pieces::new(d, size));
+    // SAFETY: `exec` runs each piece index once.
+    exec(pool, pa.count(), &|i| unsafe { f(i * size, pa.get(i), pb.get(i), pc.get(i), pd.get(i)) });
 }
 
 /// Like [`chunks`] over three slices of equal length walked together, in chunks of `size` elements (see
@@ -251,10 +300,7 @@ pub(crate) fn chunks3_of<A: Send, B: Send, C: Send>(
     c: &mut [C],
     f: impl Fn(usize, &mut [A], &mut [B], &mut [C]) + Sync + Send,
 ) {
-    #[cfg(feature = "parallel")]
-    let pool = pooled(a.len());
-    #[cfg(not(feature = "parallel"))]
-    let pool = false;
+    let pool = is_pooled(a.len());
     chunks3_pooled(pool, size, a, b, c, f)
 }
 
@@ -268,19 +314,8 @@ pub(crate) fn chunks3_pooled<A: Send, B: Send, C: Send>(
     c: &mut [C],
     f: impl Fn(usize, &mut [A], &mut [B], &mut [C]) + Sync + Send,
 ) {
-    #[cfg(feature = "parallel")]
-    if pool {
-        a.par_chunks_mut(size)
-            .zip(b.par_chunks_mut(size))
-            .zip(c.par_chunks_mut(size))
-            .enumerate()
-            .for_each(|(i, ((x, y), z))| f(i * size, x, y, z));
-        return;
-    }
-    let _ = pool;
-    a.chunks_mut(size)
-        .zip(b.chunks_mut(size))
-        .zip(c.chunks_mut(size))
-        .enumerate()
-        .for_each(|(i, ((x, y), z))| f(i * size, x, y, z));
+    assert!(a.len() == b.len() && a.len() == c.len());
+    let (pa, pb, pc) = (Pieces::new(a, size), Pieces::new(b, size), Pieces::new(c, size));
+    // SAFETY: `exec` runs each piece index once.
+    exec(pool, pa.count(), &|i| unsafe { f(i * size, pa.get(i), pb.get(i), pc.get(i)) });
 }

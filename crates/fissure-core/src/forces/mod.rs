@@ -179,23 +179,11 @@ impl<R: Real> ForceScratch<R> {
         if fused_wind {
             vp.iter_mut().for_each(|p| *p = R::ZERO);
         }
-        #[cfg(feature = "parallel")]
-        let done = fused_wind
-            || par::pooled(m.tri_count()) && {
-                use rayon::prelude::*;
-                self.tri_cross
-                    .par_chunks_mut(par::CHUNK)
-                    .zip(vp.par_chunks_mut(nb))
-                    .enumerate()
-                    .for_each(|(c, (cross, part))| cross_chunk(c * par::CHUNK, cross, part));
-                true
-            };
-        #[cfg(not(feature = "parallel"))]
-        let done = fused_wind;
-        if !done {
-            for (c, (cross, part)) in self.tri_cross.chunks_mut(par::CHUNK).zip(vp.chunks_mut(nb)).enumerate() {
-                cross_chunk(c * par::CHUNK, cross, part);
-            }
+        if !fused_wind {
+            let pool = par::is_pooled(m.tri_count());
+            let (pc, pv) = (par::Pieces::new(&mut self.tri_cross, par::CHUNK), par::Pieces::new(vp, nb));
+            // SAFETY: `exec` runs each piece index once.
+            par::exec(pool, pc.count(), &|c| unsafe { cross_chunk(c * par::CHUNK, pc.get(c), pv.get(c)) });
         }
         let sixth = R::from_f64(1.0 / 6.0);
         for b in 0..nb {

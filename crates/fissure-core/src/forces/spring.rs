@@ -137,7 +137,8 @@ pub(crate) fn implicit_coefficients<R: Real>(d: R::V, rest: R, ks: R, kd: R, h: 
 /// per-component arrays, [`force_parts`] runs on those as plain loops (packed square roots and divisions), and
 /// the results are scattered back. Same maths lane by lane, same bits as one spring at a time.
 fn spring_pass<R: Real, const PROJECTED: bool>(m: &Model<R>, q: &[R::V], qd: &[R::V], out: &mut [R::V]) {
-    par::chunks(out, |start, chunk| {
+    // Each spring's force is its own: on the team in finer pieces (`par::piece`), the same bits.
+    par::chunks_of(par::piece(par::CHUNK), out, |start, chunk| {
         spring_chunk_dispatch::<R, PROJECTED, false>(m, q, qd, start, chunk, None, &mut [])
     });
 }

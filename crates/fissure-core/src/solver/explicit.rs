@@ -37,7 +37,7 @@ impl<R: Real> CpuSolver<R> {
         let t = Instant::now();
         let f = &self.f;
         let pool = par::gather_pool(gather_work(m, surface));
-        par::chunks2_pooled(pool, GATHER_CHUNK, &mut s.particle_q, &mut s.particle_qd, |start, qs, vs| {
+        par::chunks2_pooled(pool, par::piece(GATHER_CHUNK), &mut s.particle_q, &mut s.particle_qd, |start, qs, vs| {
             let mut bad = false;
             for k in 0..qs.len() {
                 let i = start + k;
@@ -74,7 +74,7 @@ impl<R: Real> CpuSolver<R> {
         let pool = par::gather_pool(gather_work(m, surface) + 2 * m.spring_count());
         par::chunks3_pooled(
             pool,
-            GATHER_CHUNK,
+            par::piece(GATHER_CHUNK),
             &mut s.particle_q,
             &mut s.particle_qd,
             &mut load,
@@ -247,7 +247,7 @@ impl<R: Real> CpuSolver<R> {
         let pool = par::gather_pool(gather_work(m, surface));
         par::chunks3_pooled(
             pool,
-            GATHER_CHUNK,
+            par::piece(GATHER_CHUNK),
             &mut s.particle_q,
             &mut s.particle_qd,
             &mut v_pred,
@@ -277,20 +277,25 @@ impl<R: Real> CpuSolver<R> {
         self.v_pred = v_pred;
         let t = Instant::now();
         let f = &self.f;
-        par::chunks_pooled(par::gather_pool(gather_work(m, surface)), GATHER_CHUNK, &mut s.particle_qd, |start, vs| {
-            let mut bad = false;
-            for k in 0..vs.len() {
-                let i = start + k;
-                let w = m.particle_inv_mass[i];
-                if w != R::ZERO {
-                    vs[k] += particle_force(m, f, surface, i) * (w * half);
-                    bad |= !vs[k].is_finite();
+        par::chunks_pooled(
+            par::gather_pool(gather_work(m, surface)),
+            par::piece(GATHER_CHUNK),
+            &mut s.particle_qd,
+            |start, vs| {
+                let mut bad = false;
+                for k in 0..vs.len() {
+                    let i = start + k;
+                    let w = m.particle_inv_mass[i];
+                    if w != R::ZERO {
+                        vs[k] += particle_force(m, f, surface, i) * (w * half);
+                        bad |= !vs[k].is_finite();
+                    }
                 }
-            }
-            if bad {
-                blown.store(true, Ordering::Relaxed);
-            }
-        });
+                if bad {
+                    blown.store(true, Ordering::Relaxed);
+                }
+            },
+        );
         self.timers.add(Stage::Integrate, t);
     }
 
@@ -319,7 +324,7 @@ impl<R: Real> CpuSolver<R> {
                 let (x0, v0) = (&s.particle_q, &s.particle_qd);
                 par::chunks4_pooled(
                     pool,
-                    GATHER_CHUNK,
+                    par::piece(GATHER_CHUNK),
                     &mut rk.xt,
                     &mut rk.vt,
                     &mut rk.ax,
@@ -344,7 +349,7 @@ impl<R: Real> CpuSolver<R> {
                 let vt = &rk.vt;
                 par::chunks4_pooled(
                     pool,
-                    GATHER_CHUNK,
+                    par::piece(GATHER_CHUNK),
                     &mut s.particle_q,
                     &mut s.particle_qd,
                     &mut rk.ax,

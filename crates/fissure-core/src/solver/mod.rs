@@ -214,6 +214,13 @@ pub struct CgStats {
 /// thread. A model with such passes steps inside the pool: [`Solver::advance`] hands a whole batch of steps over
 /// once (what `World::advance` uses), [`Solver::step`] one step; run the stepping loop inside your own pool
 /// (`ThreadPool::install`) and nothing is handed over at all.
+///
+/// A smaller model without contact, stepped from outside rayon's pool while the pool has more than one thread,
+/// runs its passes on a team of spinning helper threads instead (`crate::team`: one per pool thread less one,
+/// parked after 2 ms without work): its passes of a few microseconds are handed over in about 50 ns, where a
+/// rayon worker's wake-up cost tens of microseconds on the development VM. The 2,562-vertex ball of
+/// `benches/ball.rs` went 57.9–59.0 → 37.7–38.6 µs a step on two threads (2026-11-25, `benches/RESULTS.md`).
+/// The same bits as one thread (`tests/team.rs`).
 #[derive(Clone, Debug, Default)]
 pub struct CpuSolver<R: Real = f32> {
     /// Settings.
@@ -516,8 +523,17 @@ impl<R: Real> Solver<R> for CpuSolver<R> {
         // on the 128² cloth, 2 threads, 2026-11-24: 177–202 µs per step handing over each pass, 152–161 each
         // step).
         #[cfg(feature = "parallel")]
-        if rayon::current_thread_index().is_none() && par::pooled(model.particle_count().max(model.spring_count())) {
-            return rayon::scope(|_| (0..steps).try_for_each(|_| self.step_inner(model, state, dt)));
+        if rayon::current_thread_index().is_none() && par::pool_has_threads() {
+            if par::pooled(model.particle_count().max(model.spring_count())) {
+                return rayon::scope(|_| (0..steps).try_for_each(|_| self.step_inner(model, state, dt)));
+            }
+            // A smaller model's passes go to the spinning team (`crate::team`), when no other thread holds it. Not
+            // with contact: its refreshes use rayon's pool, whose workers the team's spinning helpers would slow.
+            if !model.has_contact()
+                && let Some(_lease) = crate::team::lease()
+            {
+                return (0..steps).try_for_each(|_| self.step_inner(model, state, dt));
+            }
         }
         (0..steps).try_for_each(|_| self.step_inner(model, state, dt))
     }

@@ -1,0 +1,63 @@
+//! The spinning team (`CpuSolver::advance` outside rayon's pool, for models below the pool's size threshold)
+//! gives the bits of one thread. Its own test binary: it sets the global pool to two threads, which the team's
+//! helpers follow (one helper), whatever the machine's core count.
+
+use fissure_core::glam::{DVec3, Vec3};
+use fissure_core::*;
+
+/// A mid-sized scene with every term the team serves: a pressurised, breakable ball (load limits: the fused
+/// load gather), a grid cloth (the spring-run kernel), wind, and two colliders.
+fn scene() -> Model<f32> {
+    let mut b = ModelBuilder::new();
+    let ball = SoftBodyOptions {
+        mass: Mass::Total(0.4),
+        stiffness: Stiffness::PerSpring(1e3),
+        gas: Gas::Amount(200.0),
+        velocity: DVec3::new(0.3, -1.0, 0.1),
+        fracture: Some(Breakable { strain_limit: f64::INFINITY, load_limit: 1e9, sealed: true, ..Default::default() }),
+        ..Default::default()
+    };
+    b.add_soft_body(&Mesh::icosphere(0.25, 4).translated(DVec3::new(0.0, 0.26, 0.0)), &ball).unwrap();
+    b.add_cloth_grid(
+        24,
+        24,
+        0.02,
+        |p| DVec3::new(p.x - 0.2, 0.8, p.y),
+        &ClothOptions { pins: vec![0, 23], mass: Mass::PerParticle(1e-3), ..Default::default() },
+    )
+    .unwrap();
+    b.wind(WindField::default()).unwrap();
+    b.add_collider(Collider::ground(0.0)).unwrap();
+    b.add_collider(Collider::ball(Vec3::new(0.1, 0.5, 0.0), 0.1)).unwrap();
+    b.finalize().unwrap()
+}
+
+fn run(integrator: Integrator, batch: usize) -> Vec<u32> {
+    let model = scene();
+    assert!(model.particle_count() < 16_384 && model.spring_count() < 16_384, "below the pool's threshold");
+    let mut s = model.state();
+    let mut solver = CpuSolver::<f32>::with_integrator(integrator);
+    let dt = if integrator == Integrator::ImplicitEuler { 2e-3 } else { 1e-4 };
+    for _ in 0..(120 / batch) {
+        solver.advance(&model, &mut s, dt, batch).unwrap();
+    }
+    // A state that went somewhere (the ball thrown down at 1 m/s), so equal bits say something.
+    let moved = s.particle_q.iter().zip(&model.particle_q0).map(|(a, b)| (*a - *b).length()).fold(0.0, f32::max);
+    assert!(moved > 1e-3, "{}: the scene barely moved ({moved} m)", integrator.name());
+    s.particle_q.iter().chain(&s.particle_qd).flat_map(|v| [v.x.to_bits(), v.y.to_bits(), v.z.to_bits()]).collect()
+}
+
+#[test]
+fn the_team_gives_the_bits_of_one_thread() {
+    rayon::ThreadPoolBuilder::new().num_threads(2).build_global().expect("this binary's only global pool");
+    let one = rayon::ThreadPoolBuilder::new().num_threads(1).build().unwrap();
+    for integrator in Integrator::ALL {
+        let inline = one.install(|| run(integrator, 1));
+        // Outside the pool: the team (step by step and in batches).
+        let teamed = run(integrator, 1);
+        let batched = run(integrator, 40);
+        let first = inline.iter().zip(&teamed).position(|(a, b)| a != b);
+        assert!(first.is_none(), "{}: the team differs from one thread at word {first:?}", integrator.name());
+        assert_eq!(teamed, batched, "{}: steps one at a time and in batches differ", integrator.name());
+    }
+}
