@@ -72,6 +72,60 @@ impl Drop for Lease {
     }
 }
 
+impl Lease {
+    /// Runs `f` with this thread's passes off the team (inline or on rayon's pool, as without one), keeping the
+    /// lease (see [`Pick`]).
+    pub(crate) fn without<T>(&self, f: impl FnOnce() -> T) -> T {
+        HELD.with(|h| h.set(false));
+        let out = f();
+        HELD.with(|h| h.set(true));
+        out
+    }
+}
+
+/// Whether the team pays, measured as the steps run. Two threads are faster only where the cores answer each
+/// other quickly: on the development VM a round trip between its two vCPUs took 45 ns in some hours and 383 ns in
+/// others (2026-11-25; the host placed them apart), and there the 642-vertex ball took 26.6 µs a step on the
+/// team against 15 on one thread. So the solver times both ways and uses the faster: the other is timed again
+/// for [`Pick::TRY`] steps in every [`Pick::PERIOD`]. The choice changes no bits (the team gives one thread's).
+#[derive(Clone, Copy, Debug, Default)]
+pub(crate) struct Pick {
+    /// Mean step time \[s\] inline and on the team (0: not measured yet).
+    mean: [f64; 2],
+    steps: u64,
+}
+
+impl Pick {
+    const PERIOD: u64 = 4096;
+    const TRY: u64 = 48;
+
+    /// Whether the next steps go to the team, and how many at most before asking again.
+    pub(crate) fn choose(&self) -> (bool, usize) {
+        let phase = self.steps % Self::PERIOD;
+        let best = self.mean[1] <= self.mean[0];
+        if self.mean[1] == 0.0 || self.mean[0] == 0.0 {
+            // Measure the one not measured yet (the team first).
+            return (self.mean[1] == 0.0, (Self::TRY - phase % Self::TRY) as usize);
+        }
+        if phase < Self::TRY {
+            return (!best, (Self::TRY - phase) as usize);
+        }
+        (best, (Self::PERIOD - phase) as usize)
+    }
+
+    /// Records `n` steps on the team (or not) that took `secs`; the first of a trial is left out (it may include
+    /// a helper's wake-up).
+    pub(crate) fn record(&mut self, team: bool, n: usize, secs: f64, first_of_trial: bool) {
+        self.steps += n as u64;
+        if first_of_trial && n == 1 {
+            return;
+        }
+        let per = secs / n as f64;
+        let m = &mut self.mean[team as usize];
+        *m = if *m == 0.0 { per } else { 0.9 * *m + 0.1 * per };
+    }
+}
+
 /// The team, if it exists (rayon's global pool has more than one thread) and no other thread holds it.
 pub(crate) fn lease() -> Option<Lease> {
     let team = TEAM.get_or_init(|| Team::start(rayon::current_num_threads().saturating_sub(1))).as_ref()?;

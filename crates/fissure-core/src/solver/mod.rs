@@ -265,6 +265,12 @@ pub struct CpuSolver<R: Real = f32> {
     collide_at: Option<f64>,
     /// …and whether it did (the collision pass is then skipped).
     collided: bool,
+    /// Whether the spinning team pays on this machine, measured (see `crate::team::Pick`)…
+    #[cfg(feature = "parallel")]
+    team_pick: crate::team::Pick,
+    /// …and the way the last steps went.
+    #[cfg(feature = "parallel")]
+    team_last: Option<bool>,
 }
 
 impl<R: Real> CpuSolver<R> {
@@ -529,10 +535,27 @@ impl<R: Real> Solver<R> for CpuSolver<R> {
             }
             // A smaller model's passes go to the spinning team (`crate::team`), when no other thread holds it. Not
             // with contact: its refreshes use rayon's pool, whose workers the team's spinning helpers would slow.
+            // Whether it pays is measured as the steps run (`crate::team::Pick`).
             if !model.has_contact()
-                && let Some(_lease) = crate::team::lease()
+                && let Some(lease) = crate::team::lease()
             {
-                return (0..steps).try_for_each(|_| self.step_inner(model, state, dt));
+                let mut left = steps;
+                while left > 0 {
+                    let (team, most) = self.team_pick.choose();
+                    let n = most.min(left).max(1);
+                    let first = self.team_last != Some(team);
+                    let t0 = Instant::now();
+                    let r = if team {
+                        (0..n).try_for_each(|_| self.step_inner(model, state, dt))
+                    } else {
+                        lease.without(|| (0..n).try_for_each(|_| self.step_inner(model, state, dt)))
+                    };
+                    self.team_pick.record(team, n, t0.elapsed().as_secs_f64(), first);
+                    self.team_last = Some(team);
+                    r?;
+                    left -= n;
+                }
+                return Ok(());
             }
         }
         (0..steps).try_for_each(|_| self.step_inner(model, state, dt))
