@@ -4,14 +4,16 @@
 //! 2–30 µs. Handed to rayon's pool, each pass waits for a sleeping worker to wake: on the 2-core development VM
 //! that wake-up took microseconds in some minutes and tens in others (the 2,562-vertex ball at 39–45 µs a step
 //! or 68–78 µs, flipping on its own; `benches/RESULTS.md`, issue 15, 24e), so those passes ran on the calling
-//! thread. Here the helpers are threads of their own that keep spinning between passes (about
-//! [`SPIN`] after the last one, then they park): a pass is handed over by one atomic store and picked up in
-//! about 50 ns (a measured round trip between the VM's two cores: 45 ns, stable across runs).
+//! thread. Here the helpers are threads of their own that keep spinning between passes (about [`SPIN`] after
+//! the last one, then they park): a pass is handed over by one atomic store and picked up within a round trip
+//! between the cores. On the development VM that round trip took 45 ns in one hour and 383–402 ns in another
+//! (2026-11-25, likely the host placing the two vCPUs apart); there two threads lose to one on these models, so the
+//! solver measures which way is faster as it steps ([`Pick`]).
 //!
-//! Work is claimed piece by piece from one atomic counter, by whichever thread is free, and every pass cuts its
-//! work into the same fixed pieces as without the team: each piece's results are its own, so the bits do not
-//! depend on which thread ran it, or on the number of threads. A caller never waits for a helper to arrive: if
-//! none does, it runs every piece itself.
+//! Work is claimed piece by piece from one atomic word (the caller from the front, helpers from the end), and
+//! every pass cuts its work into the same fixed pieces as without the team: each piece's results are its own, so
+//! the bits do not depend on which thread ran it, or on the number of threads. A caller never waits for a helper
+//! to arrive: if none does, it runs every piece itself.
 //!
 //! One team serves the process ([`lease`]): a solver stepping on another thread meanwhile runs its passes as it
 //! would without one. The team is used only outside rayon's pool, with a pool of more than one thread (its
@@ -31,7 +33,7 @@ const SPIN: Duration = Duration::from_millis(2);
 type Job = *const (dyn Fn(usize) + Sync);
 
 struct Shared {
-    /// The current pass: its piece count (high 32 bits) and the next piece to claim (low 32 bits).
+    /// The current pass's unclaimed pieces `front .. end`: `end` in the high 32 bits, `front` in the low.
     state: AtomicU64,
     /// Pieces of the current pass finished.
     done: AtomicU32,
@@ -85,14 +87,26 @@ impl Lease {
 
 /// Whether the team pays, measured as the steps run. Two threads are faster only where the cores answer each
 /// other quickly: on the development VM a round trip between its two vCPUs took 45 ns in some hours and 383 ns in
-/// others (2026-11-25; the host placed them apart), and there the 642-vertex ball took 26.6 µs a step on the
-/// team against 15 on one thread. So the solver times both ways and uses the faster: the other is timed again
+/// others (2026-11-25), and then the 642-vertex ball took 26.6 µs a step on the team against 17.8 on one
+/// thread. So the solver times both ways and uses the faster: the other is timed again
 /// for [`Pick::TRY`] steps in every [`Pick::PERIOD`]. The choice changes no bits (the team gives one thread's).
-#[derive(Clone, Copy, Debug, Default)]
+#[derive(Clone, Copy, Debug)]
 pub(crate) struct Pick {
-    /// Mean step time \[s\] inline and on the team (0: not measured yet).
-    mean: [f64; 2],
+    /// The last [`Pick::TRY`] step times \[s\] inline (`[0]`) and on the team (`[1]`), a ring each…
+    ring: [[f32; Pick::TRY as usize]; 2],
+    /// …how many each holds, and where the next goes.
+    len: [usize; 2],
+    pos: [usize; 2],
+    /// Whether the team was the faster at the last comparison (the medians of the rings: one step in a few
+    /// hundred meets a preemption or an interrupt on the VM, and a mean would follow it).
+    team_best: bool,
     steps: u64,
+}
+
+impl Default for Pick {
+    fn default() -> Self {
+        Pick { ring: [[0.0; Pick::TRY as usize]; 2], len: [0; 2], pos: [0; 2], team_best: true, steps: 0 }
+    }
 }
 
 impl Pick {
@@ -101,29 +115,45 @@ impl Pick {
 
     /// Whether the next steps go to the team, and how many at most before asking again.
     pub(crate) fn choose(&self) -> (bool, usize) {
+        let full = Self::TRY as usize;
+        if self.len[1] < full {
+            // Measure the team first, then one thread.
+            return (true, full - self.len[1]);
+        }
+        if self.len[0] < full {
+            return (false, full - self.len[0]);
+        }
         let phase = self.steps % Self::PERIOD;
-        let best = self.mean[1] <= self.mean[0];
-        if self.mean[1] == 0.0 || self.mean[0] == 0.0 {
-            // Measure the one not measured yet (the team first).
-            return (self.mean[1] == 0.0, (Self::TRY - phase % Self::TRY) as usize);
-        }
         if phase < Self::TRY {
-            return (!best, (Self::TRY - phase) as usize);
+            return (!self.team_best, (Self::TRY - phase) as usize);
         }
-        (best, (Self::PERIOD - phase) as usize)
+        (self.team_best, (Self::PERIOD - phase) as usize)
     }
 
-    /// Records `n` steps on the team (or not) that took `secs`; the first of a trial is left out (it may include
-    /// a helper's wake-up).
-    pub(crate) fn record(&mut self, team: bool, n: usize, secs: f64, first_of_trial: bool) {
+    /// Records `n` steps on the team (or not) that took `secs`; the first step after a switch is left out (it
+    /// may include a helper's wake-up). Compares the two ways when a trial ends, or when both rings first fill.
+    pub(crate) fn record(&mut self, team: bool, n: usize, secs: f64, first_after_switch: bool) {
+        let full = Self::TRY as usize;
+        let was_full = self.len == [full; 2];
+        let before = self.steps % Self::PERIOD;
         self.steps += n as u64;
-        if first_of_trial && n == 1 {
-            return;
+        if !(first_after_switch && n == 1) {
+            let k = team as usize;
+            self.ring[k][self.pos[k]] = (secs / n as f64) as f32;
+            self.pos[k] = (self.pos[k] + 1) % full;
+            self.len[k] = (self.len[k] + 1).min(full);
         }
-        let per = secs / n as f64;
-        let m = &mut self.mean[team as usize];
-        *m = if *m == 0.0 { per } else { 0.9 * *m + 0.1 * per };
+        let after = self.steps % Self::PERIOD;
+        let trial_ended = before < Self::TRY && (after >= Self::TRY || after < before);
+        if self.len == [full; 2] && (trial_ended || !was_full) {
+            self.team_best = median(self.ring[1]) <= median(self.ring[0]);
+        }
     }
+}
+
+fn median<const N: usize>(mut v: [f32; N]) -> f32 {
+    v.sort_unstable_by(f32::total_cmp);
+    v[N / 2]
 }
 
 /// The team, if it exists (rayon's global pool has more than one thread) and no other thread holds it.
@@ -142,19 +172,25 @@ pub(crate) fn held() -> Option<&'static Team> {
     if HELD.with(|h| h.get()) { TEAM.get().and_then(|t| t.as_ref()) } else { None }
 }
 
-const fn pack(n: u32, next: u32) -> u64 {
-    ((n as u64) << 32) | next as u64
+/// A pass's unclaimed pieces `front .. end`, in one word.
+const fn pack(end: u32, front: u32) -> u64 {
+    ((end as u64) << 32) | front as u64
 }
 
 impl Shared {
-    /// Claims a piece of the current pass and runs it; false if none was left.
-    fn help(&self) -> bool {
+    /// Claims a piece of the current pass and runs it; false if none was left. The caller claims from the front,
+    /// helpers (`back`) from the end: each thread works through a contiguous run of pieces until they meet, so a
+    /// pass that reads what the pass before wrote (the gather reads the spring forces) can find more of it in its
+    /// own core's cache when the model's order is local. (On the balls of `benches/ball.rs` no difference showed
+    /// against claiming from one end, 2026-11-25.)
+    fn help(&self, back: bool) -> bool {
         let s = self.state.load(Ordering::Acquire);
-        let (n, next) = ((s >> 32) as u32, s as u32);
-        if next >= n {
+        let (end, front) = ((s >> 32) as u32, s as u32);
+        if front >= end {
             return false;
         }
-        if self.state.compare_exchange_weak(s, s + 1, Ordering::AcqRel, Ordering::Relaxed).is_err() {
+        let (claimed, piece) = if back { (s - (1 << 32), end - 1) } else { (s + 1, front) };
+        if self.state.compare_exchange_weak(s, claimed, Ordering::AcqRel, Ordering::Relaxed).is_err() {
             return true;
         }
         // SAFETY: the piece is claimed, so its pass cannot end (nor `job` change) before `done` counts it; the
@@ -163,7 +199,7 @@ impl Shared {
         let job = unsafe { (*self.job.get()).expect("a claimed piece has a job") };
         // SAFETY: the caller keeps the function alive until every piece is done.
         let f = unsafe { &*job };
-        if catch_unwind(AssertUnwindSafe(|| f(next as usize))).is_err() {
+        if catch_unwind(AssertUnwindSafe(|| f(piece as usize))).is_err() {
             self.panicked.store(true, Ordering::Relaxed);
         }
         self.done.fetch_add(1, Ordering::Release);
@@ -211,7 +247,7 @@ impl Team {
         if sh.parked.load(Ordering::SeqCst) > 0 {
             self.helpers.iter().for_each(|t| t.unpark());
         }
-        while sh.help() {}
+        while sh.help(false) {}
         while sh.done.load(Ordering::Acquire) < n32 {
             std::hint::spin_loop();
         }
@@ -229,7 +265,7 @@ fn helper(sh: &Shared) {
     let mut idle_since = Instant::now();
     let mut spins = 0u32;
     loop {
-        if sh.help() {
+        if sh.help(true) {
             spins = 0;
             continue;
         }
@@ -249,5 +285,60 @@ fn helper(sh: &Shared) {
             sh.parked.fetch_sub(1, Ordering::SeqCst);
             spins = 0;
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::Pick;
+
+    /// Steps one at a time for `steps`, the team taking `team` s a step and one thread `one` s, every 100th step
+    /// of either way `spike` s (a preemption); returns the share of steps that went to the team.
+    fn share(team: f64, one: f64, spike: f64, steps: usize) -> f64 {
+        let (mut p, mut last, mut on_team) = (Pick::default(), None, 0);
+        for k in 0..steps {
+            let (t, _) = p.choose();
+            let secs = if k % 100 == 99 {
+                spike
+            } else if t {
+                team
+            } else {
+                one
+            };
+            p.record(t, 1, secs, last != Some(t));
+            last = Some(t);
+            on_team += t as usize;
+        }
+        on_team as f64 / steps as f64
+    }
+
+    #[test]
+    fn picks_the_faster_way_and_ignores_spikes() {
+        let n = 40_000;
+        // The faster way gets all but the trials (48 steps in every 4,096, and the first measurements).
+        assert!(share(12e-6, 15e-6, 1e-3, n) > 0.98);
+        assert!(share(27e-6, 18e-6, 1e-3, n) < 0.02);
+        // Equal speeds: either is fine, but the pick must not flap on the spikes into a mean-driven choice.
+        let s = share(15e-6, 15e-6, 1e-3, n);
+        assert!(!(0.02..=0.98).contains(&s), "flapped: {s}");
+    }
+
+    #[test]
+    fn follows_a_change_of_machine() {
+        // The team faster for 20,000 steps, then slower: the pick turns within a period or two.
+        let (mut p, mut last) = (Pick::default(), None);
+        let mut late_team = 0;
+        for k in 0..40_000 {
+            let (t, _) = p.choose();
+            let secs = match (t, k < 20_000) {
+                (true, true) => 12e-6,
+                (true, false) => 27e-6,
+                (false, _) => 16e-6,
+            };
+            p.record(t, 1, secs, last != Some(t));
+            last = Some(t);
+            late_team += (t && k >= 30_000) as usize;
+        }
+        assert!(late_team < 200, "{late_team} of the last 10,000 steps still on the slower team");
     }
 }

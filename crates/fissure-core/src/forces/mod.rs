@@ -215,7 +215,9 @@ impl<R: Real> ForceScratch<R> {
         let rho_half = R::from_f64(0.5 * wind.air_density);
         let wind = wind.prepare::<R>(time);
         let body_pressure = &self.body_pressure;
-        par::chunks2(&mut self.tri_f, &mut self.tri_cross, |start, out, cross| {
+        // Each triangle's force is its own: on the team in finer pieces (`par::piece`), the same bits.
+        let (pool, size) = (par::is_pooled(self.tri_f.len()), par::piece(par::CHUNK));
+        par::chunks2_pooled(pool, size, &mut self.tri_f, &mut self.tri_cross, |start, out, cross| {
             wind::wind_chunk(m, q, qd, cross, fused_wind, body_pressure, &wind, rho_half, start, out)
         });
     }
