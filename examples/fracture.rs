@@ -220,7 +220,9 @@ pub fn check(s: &Summary) -> Result<(), String> {
         Some((at, end)) if end < at && s.gas.1 < s.gas.0 => {}
         other => return Err(format!("the punctured ball did not deflate: volume {other:?}, gas {:?}", s.gas)),
     }
-    common::check_frames(&s.pngs, 0.002)
+    // The torn ball lies behind an obstacle late in the run: 0.19 % of a 640 × 360 frame at t = 1.17 s
+    // (2026-11-25; 0.2 % failed the example's own check there). A blank or body-less frame shows none.
+    common::check_frames(&s.pngs, 0.001)
 }
 
 #[allow(dead_code)]

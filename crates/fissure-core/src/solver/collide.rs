@@ -84,6 +84,21 @@ impl<R: Real> CpuSolver<R> {
     }
 }
 
+/// A particle at `(x, v)` against every collider (`prepared`: this substep's, `every`: all their indices), for
+/// the contact pass, which moves particles after this pass ran: a push from another body can press a particle
+/// resting on a collider into it (the fracture scene's broken-off blocks, pressed by the ball against the ground,
+/// were seen 0.12 mm deep at a frame's end, 2026-11-25). `None` if none touches it.
+pub(super) fn resolve_all(
+    prepared: &[crate::collision::PreparedCollider],
+    colliders: &[crate::collision::Collider],
+    every: &[u32],
+    x: glam::Vec3,
+    v: glam::Vec3,
+) -> Option<(glam::Vec3, glam::Vec3)> {
+    let mut unused = ([glam::Vec3::ZERO; PUSHES], 0usize, true);
+    sweeps::<false>(prepared, colliders, every, x, v, &mut unused)
+}
+
 /// Particles `start .. start + qs.len()` (`start` a multiple of [`COLLIDE_BLOCK`]) against the colliders
 /// `prepared` (`every`: all their indices); true if a contact made a state non-finite.
 #[inline]

@@ -395,6 +395,8 @@ impl<R: Real> CpuSolver<R> {
         }
         // Apply, then cap each move at its bound.
         let mut capped = 0;
+        let (prepared, every) = (&self.colliders[..], &self.collider_ids[..]);
+        let has_colliders = m.has_colliders() && !prepared.is_empty();
         for &i in touched.iter() {
             let i = i as usize;
             let d = std::mem::take(&mut dv[i]);
@@ -412,6 +414,16 @@ impl<R: Real> CpuSolver<R> {
                 x = x0i + k * step;
                 v *= k;
                 capped += 1;
+            }
+            // The colliders again (their pass ran before this one), within the same bound: a push out of the
+            // ground that would carry the particle farther than `b` could cross another surface, and crossing is
+            // what the bound rules out, so there the particle keeps the contact's position.
+            if has_colliders
+                && let Some((xc, vc)) = collide::resolve_all(prepared, &m.colliders, every, x.as_vec3(), v.as_vec3())
+                && (xc.as_dvec3() - x0i).length() <= b
+            {
+                x = xc.as_dvec3();
+                v = vc.as_dvec3();
             }
             s.particle_q[i] = R::V::from_dvec3(x);
             s.particle_qd[i] = R::V::from_dvec3(v);
