@@ -30,9 +30,7 @@
 //! drop, the punctured ball and the fracture scene, by rounding.
 //! Then (2026-11-25) the contact pass resolves the particles it moved against the colliders again, within each
 //! particle's displacement bound (a block pressed into the ground by the ball stayed up to 0.12 mm inside): the
-//! fracture scene. Then the bodies' volumes summed in pieces of 256 triangles instead of 2,048 (`forces::
-//! VOLUME_PIECE`, so that a 642-vertex ball's surface pass splits between threads): the ball drop, the punctured
-//! ball and the fracture scene, by rounding.
+//! fracture scene.
 //!
 //! The hash covers positions, velocities and time (their bits), the counts of particles, springs, triangles and
 //! bodies, every body's gas, and the fracture events (kind, time bits, index). The CPU engine is deterministic
@@ -101,13 +99,13 @@ fn check(name: &str, got: u64, want: u64) {
 fn fracture_scene_final_state_is_bit_identical() {
     let (h, w) = scene_hash("fracture.toml");
     assert!(!w.events.is_empty(), "the fracture scene breaks");
-    check("fracture.toml", h, 0x4cc6_bcd3_32a6_b346);
+    check("fracture.toml", h, 0x8af6_3862_5d18_6800);
 }
 
 #[test]
 fn ball_drop_scene_final_state_is_bit_identical() {
     let (h, _) = scene_hash("ball_drop.toml");
-    check("ball_drop.toml", h, 0x0b37_b068_9f71_7f2b);
+    check("ball_drop.toml", h, 0xe69c_122a_bfee_6716);
 }
 
 #[test]
@@ -143,5 +141,5 @@ fn punctured_ball_f64_run_is_bit_identical() {
     w.break_spring(100).unwrap();
     w.advance(0.2, 1e-4).unwrap();
     let h = hash_world(&w);
-    check("punctured ball", h, 0xed09_bf19_211a_5ca4);
+    check("punctured ball", h, 0xbd8b_5374_95ea_56e5);
 }

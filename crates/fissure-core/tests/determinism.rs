@@ -76,8 +76,7 @@ fn inline_and_parallel_passes_give_the_recorded_bits() {
     assert_eq!(hash, RECORDED, "parallel feature {}", cfg!(feature = "parallel"));
 }
 
-// 2026-11-25: the bodies' volumes summed in pieces of 256 triangles instead of 2,048 (`forces::VOLUME_PIECE`).
-const RECORDED: u64 = 0xb49b_c245_33c3_f123;
+const RECORDED: u64 = 0xb5c8_171f_40de_2861;
 
 #[test]
 fn spring_run_kernel_matches_the_gather_kernel() {

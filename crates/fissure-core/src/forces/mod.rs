@@ -73,12 +73,6 @@ pub(crate) struct ForceScratch<R: Real> {
     pub strain_spans: Vec<[u32; 2]>,
 }
 
-/// Triangles per partial sum of the bodies' volumes (and per piece of the surface pass). A fixed cut: the sum's bits
-/// depend on it, never on the threads. 256 rather than `par::CHUNK` (2,048, until 2026-11-25) so that a 642-vertex
-/// ball's 1,280 triangles make five pieces that two threads share, where one chunk ran on one thread (2.7 µs of
-/// its 12.3 µs step on the team). The bits of every model with gas changed by rounding then.
-const VOLUME_PIECE: usize = 256;
-
 impl<R: Real> ForceScratch<R> {
     /// Sizes the buffers for `m`. `spring_buffer`: the per-spring buffer is needed even with the run kernel
     /// (the implicit solver reuses it for its matrix products).
@@ -95,7 +89,7 @@ impl<R: Real> ForceScratch<R> {
         self.body_p6.resize(m.body_count(), R::ZERO);
         self.body_volume.resize(m.body_count(), R::ZERO);
         self.body_pressure.resize(m.body_count(), R::ZERO);
-        self.vol_partials.resize(nt.div_ceil(VOLUME_PIECE).max(1) * m.body_count(), R::ZERO);
+        self.vol_partials.resize(nt.div_ceil(par::CHUNK).max(1) * m.body_count(), R::ZERO);
         let caps = m.has_pressure() && m.openings.iter().any(|o| m.body_gas_amount[o.body as usize] > R::ZERO);
         let nc = if caps { m.particle_count() } else { 0 };
         // Entries from an earlier model may be stale: clear what was written, then size.
@@ -148,7 +142,7 @@ impl<R: Real> ForceScratch<R> {
         let nb = m.body_count();
         let pressure = m.has_pressure();
         // Pass A: crosses and per-chunk volume partials.
-        let partial_rows = m.tri_count().div_ceil(VOLUME_PIECE).max(1);
+        let partial_rows = m.tri_count().div_ceil(par::CHUNK).max(1);
         let vp = &mut self.vol_partials[..partial_rows * nb];
         let body_anchor_q: &[u32] = &m.body_anchor;
         // A chunk's partial sums are adjacent to the next chunk's: summed in a register and stored when the body
@@ -187,9 +181,9 @@ impl<R: Real> ForceScratch<R> {
         }
         if !fused_wind {
             let pool = par::is_pooled(m.tri_count());
-            let (pc, pv) = (par::Pieces::new(&mut self.tri_cross, VOLUME_PIECE), par::Pieces::new(vp, nb));
+            let (pc, pv) = (par::Pieces::new(&mut self.tri_cross, par::CHUNK), par::Pieces::new(vp, nb));
             // SAFETY: `exec` runs each piece index once.
-            par::exec(pool, pc.count(), &|c| unsafe { cross_chunk(c * VOLUME_PIECE, pc.get(c), pv.get(c)) });
+            par::exec(pool, pc.count(), &|c| unsafe { cross_chunk(c * par::CHUNK, pc.get(c), pv.get(c)) });
         }
         let sixth = R::from_f64(1.0 / 6.0);
         for b in 0..nb {
