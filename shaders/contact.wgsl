@@ -555,5 +555,14 @@ fn contact_apply(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_wor
         v *= k;
         atomicAdd(&c_ctl[6], 1u);
     }
+    // The colliders again (their pass ran before this one), within the same bound: a push out of the ground that
+    // would carry the particle farther than `b` could cross another surface (the CPU's contact pass does the same).
+    if (params.counts2.x > 0u) {
+        let r = resolve_all(x, v);
+        if (r.hit && length(r.x - x0) <= b) {
+            x = r.x;
+            v = r.v;
+        }
+    }
     store(i, x, v);
 }

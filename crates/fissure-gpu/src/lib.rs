@@ -89,7 +89,7 @@ pub const KERNEL_BINDINGS: [(&str, &[u32]); 28] = [
     ("contact_jacobi_odd", &CONTACT_IMPULSE),
     ("contact_jacobi_fused", &CONTACT_IMPULSE),
     ("contact_friction", &CONTACT_IMPULSE),
-    ("contact_apply", &[2, 3, 23, 26, 27]),
+    ("contact_apply", &[2, 3, 13, 14, 23, 26, 27]),
 ];
 
 /// What the contact impulse kernels read and write: the state after the step, particles, the pairs, the contact
@@ -106,9 +106,12 @@ pub const READ_WRITE_BINDINGS: [u32; 15] = [2, 8, 9, 11, 12, 17, 18, 19, 23, 24,
 /// The declarations every kernel file shares (bindings, structs, helpers).
 pub const COMMON_WGSL: &str = include_str!("../../../shaders/common.wgsl");
 
-/// The complete source of a kernel file: `common.wgsl` followed by the file.
+/// The colliders' functions (`shaders/colliders.wgsl`): the collision kernel and the contact pass use them.
+pub const COLLIDERS_WGSL: &str = include_str!("../../../shaders/colliders.wgsl");
+
+/// The complete source of a kernel file: `common.wgsl`, `colliders.wgsl`, then the file.
 pub fn shader_source(file: &str) -> String {
-    format!("{COMMON_WGSL}\n{file}")
+    format!("{COMMON_WGSL}\n{COLLIDERS_WGSL}\n{file}")
 }
 
 /// What can go wrong on the GPU path.

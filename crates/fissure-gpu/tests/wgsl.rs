@@ -14,6 +14,7 @@ fn validate(name: &str, src: &str) -> naga::Module {
 #[test]
 fn every_shader_file_validates() {
     validate("common.wgsl", COMMON_WGSL);
+    validate("common.wgsl + colliders.wgsl", &shader_source(""));
     for (name, src) in SHADERS {
         let m = validate(name, &shader_source(src));
         assert!(m.entry_points.iter().all(|e| e.stage == naga::ShaderStage::Compute), "{name}");
@@ -38,7 +39,8 @@ fn every_file_in_the_shader_folder_is_compiled_in() {
     let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../shaders");
     for e in std::fs::read_dir(&dir).unwrap() {
         let name = e.unwrap().file_name().into_string().unwrap();
-        if name.ends_with(".wgsl") && name != "common.wgsl" && name != "render.wgsl" {
+        let shared = ["common.wgsl", "colliders.wgsl", "render.wgsl"];
+        if name.ends_with(".wgsl") && !shared.contains(&name.as_str()) {
             assert!(SHADERS.iter().any(|(n, _)| *n == name), "{name} is not in fissure_gpu::SHADERS");
         }
     }
