@@ -247,14 +247,17 @@ impl Team {
         if sh.parked.load(Ordering::SeqCst) > 0 {
             self.helpers.iter().for_each(|t| t.unpark());
         }
+        // A pass that a piece starts runs off the team (this one is in progress): not as a nested publish.
+        let held = HELD.with(|h| h.replace(false));
         while sh.help(false) {}
         while sh.done.load(Ordering::Acquire) < n32 {
             std::hint::spin_loop();
         }
+        HELD.with(|h| h.set(held));
         // SAFETY: as above; clearing it keeps a dangling pointer out of the shared state.
         unsafe { *sh.job.get() = None };
         if sh.panicked.swap(false, Ordering::Relaxed) {
-            panic!("a piece of a parallel pass panicked on a helper thread");
+            panic!("a piece of a parallel pass panicked");
         }
     }
 }
@@ -290,7 +293,29 @@ fn helper(sh: &Shared) {
 
 #[cfg(test)]
 mod tests {
-    use super::Pick;
+    use super::{Pick, Team};
+    use std::sync::atomic::{AtomicU32, Ordering};
+
+    #[test]
+    fn every_piece_runs_once_and_a_panic_reaches_the_caller() {
+        let team = Team::start(1).expect("one helper");
+        let counts: Vec<AtomicU32> = (0..1000).map(|_| AtomicU32::new(0)).collect();
+        for n in [0, 1, 2, 7, 1000] {
+            counts.iter().for_each(|c| c.store(0, Ordering::Relaxed));
+            team.run(n, &|i| {
+                counts[i].fetch_add(1, Ordering::Relaxed);
+            });
+            assert!(counts.iter().enumerate().all(|(i, c)| c.load(Ordering::Relaxed) == (i < n) as u32), "{n}");
+        }
+        let r = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| team.run(64, &|i| assert!(i != 40))));
+        assert!(r.is_err(), "a piece's panic is lost");
+        // The team still works after it.
+        let sum = AtomicU32::new(0);
+        team.run(100, &|i| {
+            sum.fetch_add(i as u32, Ordering::Relaxed);
+        });
+        assert_eq!(sum.load(Ordering::Relaxed), 4950);
+    }
 
     /// Steps one at a time for `steps`, the team taking `team` s a step and one thread `one` s, every 100th step
     /// of either way `spike` s (a preemption); returns the share of steps that went to the team.
