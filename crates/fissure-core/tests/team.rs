@@ -5,16 +5,22 @@
 use fissure_core::glam::{DVec3, Vec3};
 use fissure_core::*;
 
-/// A mid-sized scene with every term the team serves: a pressurised, breakable ball (load limits: the fused
-/// load gather), a grid cloth (the spring-run kernel), wind, and two colliders.
-fn scene() -> Model<f32> {
+/// A mid-sized scene with every term the team serves: a pressurised ball, breakable (load limits: the fused load
+/// gather) or not (the crosses formed beside the spring pass), a grid cloth (the spring-run kernel), wind, and two
+/// colliders.
+fn scene(breakable: bool) -> Model<f32> {
     let mut b = ModelBuilder::new();
     let ball = SoftBodyOptions {
         mass: Mass::Total(0.4),
         stiffness: Stiffness::PerSpring(1e3),
         gas: Gas::Amount(200.0),
         velocity: DVec3::new(0.3, -1.0, 0.1),
-        fracture: Some(Breakable { strain_limit: f64::INFINITY, load_limit: 1e9, sealed: true, ..Default::default() }),
+        fracture: breakable.then_some(Breakable {
+            strain_limit: f64::INFINITY,
+            load_limit: 1e9,
+            sealed: true,
+            ..Default::default()
+        }),
         ..Default::default()
     };
     b.add_soft_body(&Mesh::icosphere(0.25, 4).translated(DVec3::new(0.0, 0.26, 0.0)), &ball).unwrap();
@@ -32,8 +38,8 @@ fn scene() -> Model<f32> {
     b.finalize().unwrap()
 }
 
-fn run(integrator: Integrator, batch: usize) -> Vec<u32> {
-    let model = scene();
+fn run(integrator: Integrator, breakable: bool, batch: usize) -> Vec<u32> {
+    let model = scene(breakable);
     assert!(model.particle_count() < 16_384 && model.spring_count() < 16_384, "below the pool's threshold");
     let mut s = model.state();
     let mut solver = CpuSolver::<f32>::with_integrator(integrator);
@@ -51,11 +57,11 @@ fn run(integrator: Integrator, batch: usize) -> Vec<u32> {
 fn the_team_gives_the_bits_of_one_thread() {
     rayon::ThreadPoolBuilder::new().num_threads(2).build_global().expect("this binary's only global pool");
     let one = rayon::ThreadPoolBuilder::new().num_threads(1).build().unwrap();
-    for integrator in Integrator::ALL {
-        let inline = one.install(|| run(integrator, 1));
+    for (integrator, breakable) in Integrator::ALL.into_iter().flat_map(|i| [(i, true), (i, false)]) {
+        let inline = one.install(|| run(integrator, breakable, 1));
         // Outside the pool: the team (step by step and in batches).
-        let teamed = run(integrator, 1);
-        let batched = run(integrator, 40);
+        let teamed = run(integrator, breakable, 1);
+        let batched = run(integrator, breakable, 40);
         let first = inline.iter().zip(&teamed).position(|(a, b)| a != b);
         assert!(first.is_none(), "{}: the team differs from one thread at word {first:?}", integrator.name());
         assert_eq!(teamed, batched, "{}: steps one at a time and in batches differ", integrator.name());

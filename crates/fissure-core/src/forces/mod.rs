@@ -71,6 +71,9 @@ pub(crate) struct ForceScratch<R: Real> {
     /// …and then the ranges `[start, end)` of springs whose strains it stored, in order: every other spring's
     /// strain was within its limit.
     pub strain_spans: Vec<[u32; 2]>,
+    /// The surface pass's crosses and volume partials of this evaluation are already in place (formed with the
+    /// spring pass: [`ForceScratch::springs_and_crosses`]).
+    pub crosses_done: bool,
 }
 
 impl<R: Real> ForceScratch<R> {
@@ -144,42 +147,15 @@ impl<R: Real> ForceScratch<R> {
         // Pass A: crosses and per-chunk volume partials.
         let partial_rows = m.tri_count().div_ceil(par::CHUNK).max(1);
         let vp = &mut self.vol_partials[..partial_rows * nb];
-        let body_anchor_q: &[u32] = &m.body_anchor;
-        // A chunk's partial sums are adjacent to the next chunk's: summed in a register and stored when the body
-        // changes (a store per triangle into a line another thread writes cost the pass 2× its one-thread time
-        // on two threads). The additions are the same, in the same order: the same bits.
-        let cross_chunk = |start: usize, cross: &mut [R::V], part: &mut [R]| {
-            part.iter_mut().for_each(|p| *p = R::ZERO);
-            let (mut cur, mut acc, mut anchor) = (usize::MAX, R::ZERO, R::V::ZERO);
-            for (k, c) in cross.iter_mut().enumerate() {
-                let t = start + k;
-                let [a, b, d] = m.tri_indices[t];
-                let (x0, x1, x2) = (q[a as usize], q[b as usize], q[d as usize]);
-                *c = (x1 - x0).cross(x2 - x0);
-                if pressure {
-                    let body = m.tri_body[t] as usize;
-                    if m.body_gas_amount[body] > R::ZERO {
-                        if body != cur {
-                            if cur != usize::MAX {
-                                part[cur] = acc;
-                            }
-                            (cur, acc, anchor) = (body, part[body], q[body_anchor_q[body] as usize]);
-                        }
-                        acc += (x0 - anchor).dot(*c);
-                    }
-                }
-            }
-            if cur != usize::MAX {
-                part[cur] = acc;
-            }
-        };
+        let cross_chunk =
+            |start: usize, cross: &mut [R::V], part: &mut [R]| cross_chunk(m, q, pressure, start, cross, part);
         // Without gas the crosses are the wind pass's alone: it forms them itself (below), one pass over the
         // triangles instead of two.
         let fused_wind = !pressure && m.has_wind();
         if fused_wind {
             vp.iter_mut().for_each(|p| *p = R::ZERO);
         }
-        if !fused_wind {
+        if !fused_wind && !std::mem::take(&mut self.crosses_done) {
             let pool = par::is_pooled(m.tri_count());
             let (pc, pv) = (par::Pieces::new(&mut self.tri_cross, par::CHUNK), par::Pieces::new(vp, nb));
             // SAFETY: `exec` runs each piece index once.
@@ -220,6 +196,46 @@ impl<R: Real> ForceScratch<R> {
         par::chunks2_pooled(pool, size, &mut self.tri_f, &mut self.tri_cross, |start, out, cross| {
             wind::wind_chunk(m, q, qd, cross, fused_wind, body_pressure, &wind, rho_half, start, out)
         });
+    }
+}
+
+/// Pass A of the surface pass over triangles `start .. start + cross.len()` (`start` a multiple of `par::CHUNK`):
+/// each triangle's cross `(x1 - x0) × (x2 - x0)` into `cross`, and (with gas, `pressure`) its body's volume terms
+/// summed into `part` (the chunk's row of partials, one per body). A chunk's partial sums are adjacent to the next
+/// chunk's: summed in a register and stored when the body changes (a store per triangle into a line another
+/// thread writes cost the pass 2× its one-thread time on two threads). The additions are the same, in the same
+/// order: the same bits.
+#[inline]
+pub(crate) fn cross_chunk<R: Real>(
+    m: &Model<R>,
+    q: &[R::V],
+    pressure: bool,
+    start: usize,
+    cross: &mut [R::V],
+    part: &mut [R],
+) {
+    part.iter_mut().for_each(|p| *p = R::ZERO);
+    let (mut cur, mut acc, mut anchor) = (usize::MAX, R::ZERO, R::V::ZERO);
+    for (k, c) in cross.iter_mut().enumerate() {
+        let t = start + k;
+        let [a, b, d] = m.tri_indices[t];
+        let (x0, x1, x2) = (q[a as usize], q[b as usize], q[d as usize]);
+        *c = (x1 - x0).cross(x2 - x0);
+        if pressure {
+            let body = m.tri_body[t] as usize;
+            if m.body_gas_amount[body] > R::ZERO {
+                if body != cur {
+                    if cur != usize::MAX {
+                        part[cur] = acc;
+                    }
+                    (cur, acc, anchor) = (body, part[body], q[m.body_anchor[body] as usize]);
+                }
+                acc += (x0 - anchor).dot(*c);
+            }
+        }
+    }
+    if cur != usize::MAX {
+        part[cur] = acc;
     }
 }
 

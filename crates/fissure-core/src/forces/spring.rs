@@ -25,6 +25,46 @@ impl<R: Real> ForceScratch<R> {
         }
     }
 
+    /// Whether [`ForceScratch::springs_and_crosses`] serves this evaluation: on the team (`par::teamed`), the
+    /// per-spring kernel, and gas (whose crosses the surface pass forms on its own otherwise).
+    pub fn fuse_crosses(&self, m: &Model<R>) -> bool {
+        par::teamed() && !self.runs && m.has_pressure() && self.tri_cross.len() == m.tri_count()
+    }
+
+    /// [`ForceScratch::springs`] (per-spring kernel) and the surface pass's crosses and volume partials
+    /// (`forces::cross_chunk`) in one hand-over to the team: the triangle chunks first, which the caller takes
+    /// (it claims from the front), the spring pieces after them, which helpers start on from the end. A
+    /// 642-vertex ball's 1,280 triangles are one chunk of the volume sum, so its surface pass ran on one thread
+    /// while the other waited; now the other thread runs springs meanwhile. The crosses stay on the caller's
+    /// core, as before, for the gather that reads them (the other order, a helper forming them, made the gather
+    /// slower by as much as it saved: `benches/RESULTS.md`, 25). The same pieces and chunks as the two passes
+    /// apart: the same bits. [`ForceScratch::surface`] then skips them (`crosses_done`).
+    pub fn springs_and_crosses(&mut self, m: &Model<R>, q: &[R::V], qd: &[R::V]) {
+        match m.damping_model {
+            DampingModel::Projected => self.springs_and_crosses_with::<true>(m, q, qd),
+            DampingModel::Unprojected => self.springs_and_crosses_with::<false>(m, q, qd),
+        }
+        self.crosses_done = true;
+    }
+
+    fn springs_and_crosses_with<const PROJECTED: bool>(&mut self, m: &Model<R>, q: &[R::V], qd: &[R::V]) {
+        let (nb, size) = (m.body_count(), par::piece(par::CHUNK));
+        let rows = m.tri_count().div_ceil(par::CHUNK).max(1);
+        let ps = par::Pieces::new(&mut self.spring_f, size);
+        let pc = par::Pieces::new(&mut self.tri_cross, par::CHUNK);
+        let pv = par::Pieces::new(&mut self.vol_partials[..rows * nb], nb);
+        let nc = pc.count();
+        // SAFETY: `exec` runs each piece index once; triangle chunks and spring pieces are numbered apart.
+        par::exec(false, nc + ps.count(), &|k| unsafe {
+            if k < nc {
+                super::cross_chunk(m, q, true, k * par::CHUNK, pc.get(k), pv.get(k))
+            } else {
+                let p = k - nc;
+                spring_chunk_dispatch::<R, PROJECTED, false>(m, q, qd, p * size, ps.get(p), None, &mut [])
+            }
+        });
+    }
+
     /// [`ForceScratch::springs`] that also measures the fracture trigger's inputs: each spring's strain into
     /// `strain` and, when some particle has a finite load limit, its elastic pull into `spring_el` (per-spring
     /// kernel only: see `ForceScratch::resize`).

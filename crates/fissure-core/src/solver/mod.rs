@@ -333,6 +333,9 @@ impl<R: Real> CpuSolver<R> {
             let t = Instant::now();
             if measure {
                 self.f.springs_measured(m, q, qd);
+            } else if self.f.fuse_crosses(m) {
+                // On the team the surface pass's crosses run beside the springs (timed with them).
+                self.f.springs_and_crosses(m, q, qd);
             } else {
                 self.f.springs(m, q, qd);
             }
