@@ -219,7 +219,9 @@ pub struct CgStats {
 /// runs its passes on a team of spinning helper threads instead (`crate::team`: one per pool thread less one,
 /// parked after 2 ms without work): its passes of a few microseconds are handed over in about 50 ns, where a
 /// rayon worker's wake-up cost tens of microseconds on the development VM. The 2,562-vertex ball of
-/// `benches/ball.rs` went 57.9–59.0 → 37.7–38.6 µs a step on two threads (2026-11-25, `benches/RESULTS.md`).
+/// `benches/ball.rs` went 57.9–59.0 → 33.4–34.6 µs a step on two threads (2026-11-25, `benches/RESULTS.md`), where
+/// the VM's two vCPUs answered each other in 45 ns; where they took ~400 ns the team lost, and the solver, which
+/// times both ways as it steps (`crate::team::Pick`), stepped on one thread.
 /// The same bits as one thread (`tests/team.rs`).
 #[derive(Clone, Debug, Default)]
 pub struct CpuSolver<R: Real = f32> {
