@@ -45,6 +45,14 @@ pub(crate) fn pool_has_threads() -> bool {
     rayon::current_num_threads() > 1
 }
 
+/// Whether work that calls rayon directly (the contact pass's searches) may use the pool: it has threads, and
+/// this thread does not hold the team, whose helpers spin on the cores the pool's workers would need.
+#[cfg(feature = "parallel")]
+#[inline]
+pub(crate) fn rayon_free() -> bool {
+    pool_has_threads() && !teamed()
+}
+
 /// The threads a pass over `n` elements in `chunks` chunks runs on (to turn the summed time of its pieces into
 /// an estimate of its wall time).
 pub(crate) fn threads_for(n: usize, chunks: usize) -> usize {

@@ -17,8 +17,9 @@
 //!
 //! One team serves the process ([`lease`]): a solver stepping on another thread meanwhile runs its passes as it
 //! would without one. The team is used only outside rayon's pool, with a pool of more than one thread (its
-//! helpers number the pool's threads less one), and only by models that step without rayon (see
-//! `CpuSolver::advance`): its helpers never compete with the pool's workers for long.
+//! helpers number the pool's threads less one), and only by models that step without the pool (see
+//! `CpuSolver::advance`); on it, the contact pass's searches, which call rayon directly, run on the calling thread
+//! (`par::rayon_free`): the helpers never compete with the pool's workers for long.
 
 use std::cell::{Cell, UnsafeCell};
 use std::panic::{AssertUnwindSafe, catch_unwind};

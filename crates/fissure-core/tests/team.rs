@@ -7,8 +7,8 @@ use fissure_core::*;
 
 /// A mid-sized scene with every term the team serves: a pressurised ball, breakable (load limits: the fused load
 /// gather) or not (the crosses formed beside the spring pass), a grid cloth (the spring-run kernel), wind, and two
-/// colliders.
-fn scene(breakable: bool) -> Model<f32> {
+/// colliders; with `contact`, the cloth starts 5 mm above the ball and both have contact on.
+fn scene(breakable: bool, contact: bool) -> Model<f32> {
     let mut b = ModelBuilder::new();
     let ball = SoftBodyOptions {
         mass: Mass::Total(0.4),
@@ -23,23 +23,29 @@ fn scene(breakable: bool) -> Model<f32> {
         }),
         ..Default::default()
     };
-    b.add_soft_body(&Mesh::icosphere(0.25, 4).translated(DVec3::new(0.0, 0.26, 0.0)), &ball).unwrap();
-    b.add_cloth_grid(
-        24,
-        24,
-        0.02,
-        |p| DVec3::new(p.x - 0.2, 0.8, p.y),
-        &ClothOptions { pins: vec![0, 23], mass: Mass::PerParticle(1e-3), ..Default::default() },
-    )
-    .unwrap();
+    let h = b.add_soft_body(&Mesh::icosphere(0.25, 4).translated(DVec3::new(0.0, 0.26, 0.0)), &ball).unwrap();
+    let y = if contact { 0.515 } else { 0.8 };
+    let c = b
+        .add_cloth_grid(
+            24,
+            24,
+            0.02,
+            move |p| DVec3::new(p.x - 0.2, y, p.y - 0.2),
+            &ClothOptions { pins: vec![0, 23], mass: Mass::PerParticle(1e-3), ..Default::default() },
+        )
+        .unwrap();
+    if contact {
+        b.set_contact(h.index, Contact::default()).unwrap();
+        b.set_contact(c.index, Contact { self_collision: true, ..Default::default() }).unwrap();
+    }
     b.wind(WindField::default()).unwrap();
     b.add_collider(Collider::ground(0.0)).unwrap();
     b.add_collider(Collider::ball(Vec3::new(0.1, 0.5, 0.0), 0.1)).unwrap();
     b.finalize().unwrap()
 }
 
-fn run(integrator: Integrator, breakable: bool, batch: usize) -> Vec<u32> {
-    let model = scene(breakable);
+fn run(integrator: Integrator, (breakable, contact): (bool, bool), batch: usize) -> Vec<u32> {
+    let model = scene(breakable, contact);
     assert!(model.particle_count() < 16_384 && model.spring_count() < 16_384, "below the pool's threshold");
     let mut s = model.state();
     let mut solver = CpuSolver::<f32>::with_integrator(integrator);
@@ -57,13 +63,14 @@ fn run(integrator: Integrator, breakable: bool, batch: usize) -> Vec<u32> {
 fn the_team_gives_the_bits_of_one_thread() {
     rayon::ThreadPoolBuilder::new().num_threads(2).build_global().expect("this binary's only global pool");
     let one = rayon::ThreadPoolBuilder::new().num_threads(1).build().unwrap();
-    for (integrator, breakable) in Integrator::ALL.into_iter().flat_map(|i| [(i, true), (i, false)]) {
-        let inline = one.install(|| run(integrator, breakable, 1));
+    let kinds = [(true, false), (false, false), (false, true)];
+    for (integrator, kind) in Integrator::ALL.into_iter().flat_map(|i| kinds.map(|k| (i, k))) {
+        let inline = one.install(|| run(integrator, kind, 1));
         // Outside the pool: the team (step by step and in batches).
-        let teamed = run(integrator, breakable, 1);
-        let batched = run(integrator, breakable, 40);
+        let teamed = run(integrator, kind, 1);
+        let batched = run(integrator, kind, 40);
         let first = inline.iter().zip(&teamed).position(|(a, b)| a != b);
-        assert!(first.is_none(), "{}: the team differs from one thread at word {first:?}", integrator.name());
-        assert_eq!(teamed, batched, "{}: steps one at a time and in batches differ", integrator.name());
+        assert!(first.is_none(), "{} {kind:?}: the team differs from one thread at word {first:?}", integrator.name());
+        assert_eq!(teamed, batched, "{} {kind:?}: steps one at a time and in batches differ", integrator.name());
     }
 }

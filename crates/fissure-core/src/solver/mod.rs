@@ -215,7 +215,7 @@ pub struct CgStats {
 /// once (what `World::advance` uses), [`Solver::step`] one step; run the stepping loop inside your own pool
 /// (`ThreadPool::install`) and nothing is handed over at all.
 ///
-/// A smaller model without contact, stepped from outside rayon's pool while the pool has more than one thread,
+/// A smaller model, stepped from outside rayon's pool while the pool has more than one thread,
 /// runs its passes on a team of spinning helper threads instead (`crate::team`: one per pool thread less one,
 /// parked after 2 ms without work): its passes of a few microseconds are handed over in about 50 ns, where a
 /// rayon worker's wake-up cost tens of microseconds on the development VM. The 2,562-vertex ball of
@@ -538,12 +538,10 @@ impl<R: Real> Solver<R> for CpuSolver<R> {
             if par::pooled(model.particle_count().max(model.spring_count())) {
                 return rayon::scope(|_| (0..steps).try_for_each(|_| self.step_inner(model, state, dt)));
             }
-            // A smaller model's passes go to the spinning team (`crate::team`), when no other thread holds it. Not
-            // with contact: its refreshes use rayon's pool, whose workers the team's spinning helpers would slow.
-            // Whether it pays is measured as the steps run (`crate::team::Pick`).
-            if !model.has_contact()
-                && let Some(lease) = crate::team::lease()
-            {
+            // A smaller model's passes go to the spinning team (`crate::team`), when no other thread holds it; the
+            // contact pass's searches then run on this thread (`par::rayon_free`). Whether it pays is measured as
+            // the steps run (`crate::team::Pick`).
+            if let Some(lease) = crate::team::lease() {
                 let mut left = steps;
                 while left > 0 {
                     let (team, most) = self.team_pick.choose();

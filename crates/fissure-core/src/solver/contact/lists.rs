@@ -148,7 +148,7 @@ impl<R: Real> ContactScratch<R> {
         };
         let (grid, egrid, tgrid) = (&mut self.grid, &mut self.egrid, &mut self.tgrid);
         #[cfg(feature = "parallel")]
-        let parallel = parts.len() + edges.len() >= PAR_BUILD && crate::par::pool_has_threads();
+        let parallel = parts.len() + edges.len() >= PAR_BUILD && crate::par::rayon_free();
         #[cfg(not(feature = "parallel"))]
         let parallel = false;
         if parallel {

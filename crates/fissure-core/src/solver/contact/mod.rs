@@ -38,7 +38,7 @@ const TASK: usize = 512;
 /// item on its own).
 fn extend_chunks<T: Sync, U: Send>(out: &mut Vec<U>, items: &[T], min: usize, f: impl Fn(&[T], &mut Vec<U>) + Sync) {
     #[cfg(feature = "parallel")]
-    if items.len() >= min && crate::par::pool_has_threads() {
+    if items.len() >= min && crate::par::rayon_free() {
         let parts: Vec<Vec<U>> = items
             .par_chunks(TASK)
             .map(|c| {
@@ -284,7 +284,7 @@ impl<R: Real> CpuSolver<R> {
         };
         // (Maxima and boxes: the same in any grouping.)
         #[cfg(feature = "parallel")]
-        let mv = if !crate::par::pooled(el.particles.len()) {
+        let mv = if !(crate::par::pooled(el.particles.len()) && crate::par::rayon_free()) {
             moves(&el.particles)
         } else {
             el.particles.par_chunks(TASK).map(moves).reduce(|| Moves::new(boxes), Moves::merge)
