@@ -17,9 +17,9 @@
 //!
 //! One team serves the process ([`lease`]): a solver stepping on another thread meanwhile runs its passes as it
 //! would without one. The team is used only outside rayon's pool, with a pool of more than one thread (its
-//! helpers number the pool's threads less one), and only by models that step without the pool (see
-//! `CpuSolver::advance`); on it, the contact pass's searches, which call rayon directly, run on the calling thread
-//! (`par::rayon_free`): the helpers never compete with the pool's workers for long.
+//! helpers number the pool's threads less one, at most [`MAX_HELPERS`]), and only by models that step without
+//! the pool (see `CpuSolver::advance`); on it, the contact pass's searches, which call rayon directly, run on the
+//! calling thread (`par::rayon_free`): the helpers never compete with the pool's workers for long.
 
 use std::cell::{Cell, UnsafeCell};
 use std::panic::{AssertUnwindSafe, catch_unwind};
@@ -27,6 +27,12 @@ use std::sync::atomic::{AtomicBool, AtomicU32, AtomicU64, AtomicUsize, Ordering}
 use std::sync::{Arc, OnceLock};
 use std::thread::Thread;
 use std::time::{Duration, Instant};
+
+/// At most this many helpers. The team serves models below `par::PAR_MIN` (16,384) elements, whose passes have
+/// at most 64 pieces of 256, and every thread claims them from one atomic word: past a few threads the claims
+/// contend for its cache line more than the pieces gain. A judgment, not a measurement: the development VM has two
+/// cores (one helper).
+const MAX_HELPERS: usize = 3;
 
 /// How long a helper keeps spinning after the last piece it saw before it parks.
 const SPIN: Duration = Duration::from_millis(2);
@@ -159,7 +165,8 @@ fn median<const N: usize>(mut v: [f32; N]) -> f32 {
 
 /// The team, if it exists (rayon's global pool has more than one thread) and no other thread holds it.
 pub(crate) fn lease() -> Option<Lease> {
-    let team = TEAM.get_or_init(|| Team::start(rayon::current_num_threads().saturating_sub(1))).as_ref()?;
+    let helpers = rayon::current_num_threads().saturating_sub(1).min(MAX_HELPERS);
+    let team = TEAM.get_or_init(|| Team::start(helpers)).as_ref()?;
     if HELD.with(|h| h.get()) || team.held.swap(true, Ordering::Acquire) {
         return None;
     }
