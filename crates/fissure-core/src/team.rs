@@ -108,11 +108,13 @@ pub(crate) struct Pick {
     /// hundred meets a preemption or an interrupt on the VM, and a mean would follow it).
     team_best: bool,
     steps: u64,
+    /// The way the last steps went (a switch's first step is left out: see [`Pick::record`]).
+    last: Option<bool>,
 }
 
 impl Default for Pick {
     fn default() -> Self {
-        Pick { ring: [[0.0; Pick::TRY as usize]; 2], len: [0; 2], pos: [0; 2], team_best: true, steps: 0 }
+        Pick { ring: [[0.0; Pick::TRY as usize]; 2], len: [0; 2], pos: [0; 2], team_best: true, steps: 0, last: None }
     }
 }
 
@@ -139,7 +141,8 @@ impl Pick {
 
     /// Records `n` steps on the team (or not) that took `secs`; the first step after a switch is left out (it
     /// may include a helper's wake-up). Compares the two ways when a trial ends, or when both rings first fill.
-    pub(crate) fn record(&mut self, team: bool, n: usize, secs: f64, first_after_switch: bool) {
+    pub(crate) fn record(&mut self, team: bool, n: usize, secs: f64) {
+        let first_after_switch = self.last.replace(team) != Some(team);
         let full = Self::TRY as usize;
         let was_full = self.len == [full; 2];
         let before = self.steps % Self::PERIOD;
@@ -165,8 +168,8 @@ fn median<const N: usize>(mut v: [f32; N]) -> f32 {
 
 /// The team, if it exists (rayon's global pool has more than one thread) and no other thread holds it.
 pub(crate) fn lease() -> Option<Lease> {
-    let helpers = rayon::current_num_threads().saturating_sub(1).min(MAX_HELPERS);
-    let team = TEAM.get_or_init(|| Team::start(helpers)).as_ref()?;
+    let team =
+        TEAM.get_or_init(|| Team::start(rayon::current_num_threads().saturating_sub(1).min(MAX_HELPERS))).as_ref()?;
     if HELD.with(|h| h.get()) || team.held.swap(true, Ordering::Acquire) {
         return None;
     }
@@ -328,7 +331,7 @@ mod tests {
     /// Steps one at a time for `steps`, the team taking `team` s a step and one thread `one` s, every 100th step
     /// of either way `spike` s (a preemption); returns the share of steps that went to the team.
     fn share(team: f64, one: f64, spike: f64, steps: usize) -> f64 {
-        let (mut p, mut last, mut on_team) = (Pick::default(), None, 0);
+        let (mut p, mut on_team) = (Pick::default(), 0);
         for k in 0..steps {
             let (t, _) = p.choose();
             let secs = if k % 100 == 99 {
@@ -338,8 +341,7 @@ mod tests {
             } else {
                 one
             };
-            p.record(t, 1, secs, last != Some(t));
-            last = Some(t);
+            p.record(t, 1, secs);
             on_team += t as usize;
         }
         on_team as f64 / steps as f64
@@ -359,7 +361,7 @@ mod tests {
     #[test]
     fn follows_a_change_of_machine() {
         // The team faster for 20,000 steps, then slower: the pick turns within a period or two.
-        let (mut p, mut last) = (Pick::default(), None);
+        let mut p = Pick::default();
         let mut late_team = 0;
         for k in 0..40_000 {
             let (t, _) = p.choose();
@@ -368,8 +370,7 @@ mod tests {
                 (true, false) => 27e-6,
                 (false, _) => 16e-6,
             };
-            p.record(t, 1, secs, last != Some(t));
-            last = Some(t);
+            p.record(t, 1, secs);
             late_team += (t && k >= 30_000) as usize;
         }
         assert!(late_team < 200, "{late_team} of the last 10,000 steps still on the slower team");

@@ -71,9 +71,6 @@ pub(crate) struct ForceScratch<R: Real> {
     /// …and then the ranges `[start, end)` of springs whose strains it stored, in order: every other spring's
     /// strain was within its limit.
     pub strain_spans: Vec<[u32; 2]>,
-    /// The surface pass's crosses and volume partials of this evaluation are already in place (formed with the
-    /// spring pass: [`ForceScratch::springs_and_crosses`]).
-    pub crosses_done: bool,
 }
 
 impl<R: Real> ForceScratch<R> {
@@ -141,7 +138,9 @@ impl<R: Real> ForceScratch<R> {
     }
 
     /// Triangle pass: crosses, body volumes and pressures (if any gas), wind (if any), into `tri_f`.
-    pub fn surface(&mut self, m: &Model<R>, q: &[R::V], qd: &[R::V], time: f64) {
+    /// `crosses_formed`: the crosses and volume partials of this evaluation are in place already (formed beside
+    /// the spring pass: [`ForceScratch::springs_and_crosses`]).
+    pub fn surface(&mut self, m: &Model<R>, q: &[R::V], qd: &[R::V], time: f64, crosses_formed: bool) {
         let nb = m.body_count();
         let pressure = m.has_pressure();
         // Pass A: crosses and per-chunk volume partials.
@@ -155,7 +154,7 @@ impl<R: Real> ForceScratch<R> {
         if fused_wind {
             vp.iter_mut().for_each(|p| *p = R::ZERO);
         }
-        if !fused_wind && !std::mem::take(&mut self.crosses_done) {
+        if !fused_wind && !crosses_formed {
             let pool = par::is_pooled(m.tri_count());
             let (pc, pv) = (par::Pieces::new(&mut self.tri_cross, par::CHUNK), par::Pieces::new(vp, nb));
             // SAFETY: `exec` runs each piece index once.

@@ -38,13 +38,12 @@ impl<R: Real> ForceScratch<R> {
     /// while the other waited; now the other thread runs springs meanwhile. The crosses stay on the caller's
     /// core, as before, for the gather that reads them (the other order, a helper forming them, made the gather
     /// slower by as much as it saved: `benches/RESULTS.md`, 25). The same pieces and chunks as the two passes
-    /// apart: the same bits. [`ForceScratch::surface`] then skips them (`crosses_done`).
+    /// apart: the same bits. [`ForceScratch::surface`] is then told to skip them (`crosses_formed`).
     pub fn springs_and_crosses(&mut self, m: &Model<R>, q: &[R::V], qd: &[R::V]) {
         match m.damping_model {
             DampingModel::Projected => self.springs_and_crosses_with::<true>(m, q, qd),
             DampingModel::Unprojected => self.springs_and_crosses_with::<false>(m, q, qd),
         }
-        self.crosses_done = true;
     }
 
     fn springs_and_crosses_with<const PROJECTED: bool>(&mut self, m: &Model<R>, q: &[R::V], qd: &[R::V]) {

@@ -132,7 +132,7 @@ impl<R: Real> CpuSolver<R> {
         let surface = m.has_pressure() || m.has_wind();
         if surface {
             let t = Instant::now();
-            self.f.surface(m, &s.particle_q, &s.particle_qd, s.time);
+            self.f.surface(m, &s.particle_q, &s.particle_qd, s.time, false);
             self.timers.add(Stage::Surface, t);
         }
         let t = Instant::now();

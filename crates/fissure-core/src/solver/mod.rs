@@ -267,12 +267,9 @@ pub struct CpuSolver<R: Real = f32> {
     collide_at: Option<f64>,
     /// …and whether it did (the collision pass is then skipped).
     collided: bool,
-    /// Whether the spinning team pays on this machine, measured (see `crate::team::Pick`)…
+    /// Whether the spinning team pays on this machine, measured (see `crate::team::Pick`).
     #[cfg(feature = "parallel")]
     team_pick: crate::team::Pick,
-    /// …and the way the last steps went.
-    #[cfg(feature = "parallel")]
-    team_last: Option<bool>,
 }
 
 impl<R: Real> CpuSolver<R> {
@@ -331,12 +328,13 @@ impl<R: Real> CpuSolver<R> {
     fn forces(&mut self, m: &Model<R>, q: &[R::V], qd: &[R::V], time: f64) -> bool {
         let measure = std::mem::take(&mut self.measure_next) && self.f.measuring;
         let fuse = std::mem::take(&mut self.fuse_loads) && self.f.load.len() == q.len();
+        // On the team the surface pass's crosses run beside the springs (timed with them).
+        let crosses_formed = m.spring_count() > 0 && !measure && self.f.fuse_crosses(m);
         if m.spring_count() > 0 {
             let t = Instant::now();
             if measure {
                 self.f.springs_measured(m, q, qd);
-            } else if self.f.fuse_crosses(m) {
-                // On the team the surface pass's crosses run beside the springs (timed with them).
+            } else if crosses_formed {
                 self.f.springs_and_crosses(m, q, qd);
             } else {
                 self.f.springs(m, q, qd);
@@ -346,7 +344,7 @@ impl<R: Real> CpuSolver<R> {
         let surface = m.has_pressure() || m.has_wind();
         if surface {
             let t = Instant::now();
-            self.f.surface(m, q, qd, time);
+            self.f.surface(m, q, qd, time, crosses_formed);
             self.timers.add(Stage::Surface, t);
         }
         if measure {
@@ -546,15 +544,13 @@ impl<R: Real> Solver<R> for CpuSolver<R> {
                 while left > 0 {
                     let (team, most) = self.team_pick.choose();
                     let n = most.min(left).max(1);
-                    let first = self.team_last != Some(team);
                     let t0 = Instant::now();
                     let r = if team {
                         (0..n).try_for_each(|_| self.step_inner(model, state, dt))
                     } else {
                         lease.without(|| (0..n).try_for_each(|_| self.step_inner(model, state, dt)))
                     };
-                    self.team_pick.record(team, n, t0.elapsed().as_secs_f64(), first);
-                    self.team_last = Some(team);
+                    self.team_pick.record(team, n, t0.elapsed().as_secs_f64());
                     r?;
                     left -= n;
                 }
