@@ -15,57 +15,57 @@ pub struct HashGrid {
     items: Vec<u32>,
     /// The packed cell key of each entry of `items`.
     cells: Vec<u64>,
-    keys: Vec<u32>,
+    /// Build scratch: the kept points' indices and packed cells, in index order.
+    kept: Vec<u32>,
     packed: Vec<u64>,
 }
 
 impl HashGrid {
     /// Rebuilds the grid with cells of side `cell` over the points `point(k)` for `k < n` (`None`: left out).
+    /// The buckets are sized for the points kept, not for `n`: the contact pass keeps only the elements near
+    /// another body, often a tenth of them, and a table sized for all cost it more to clear and sum than the
+    /// points cost to sort. (The bucket count changes no query's output: a query keeps the points of its very
+    /// cells, in index order.)
     pub fn build(&mut self, cell: f64, n: usize, point: impl Fn(usize) -> Option<DVec3>) {
         self.inv_cell = 1.0 / cell;
-        let buckets = (2 * n).next_power_of_two().max(64);
-        self.mask = buckets - 1;
-        let (mut keys, mut packed) = (std::mem::take(&mut self.keys), std::mem::take(&mut self.packed));
-        keys.clear();
+        let (mut kept, mut packed) = (std::mem::take(&mut self.kept), std::mem::take(&mut self.packed));
+        kept.clear();
         packed.clear();
+        // (index, packed cell) of each point kept, in index order; the bucket comes once their count is known.
         for k in 0..n {
-            match point(k) {
-                Some(p) => {
-                    let c = self.cell(p);
-                    keys.push(self.bucket(c) as u32);
-                    packed.push(pack(c));
-                }
-                None => {
-                    keys.push(u32::MAX);
-                    packed.push(0);
-                }
+            if let Some(p) = point(k) {
+                kept.push(k as u32);
+                packed.push(pack(self.cell(p)));
             }
         }
-        self.keys = keys;
-        self.packed = packed;
+        let count = kept.len();
+        let buckets = (2 * count).next_power_of_two().max(64);
+        self.mask = buckets - 1;
         self.start.clear();
-        self.start.resize(buckets + 1, 0);
-        for &b in &self.keys {
-            if b != u32::MAX {
-                self.start[b as usize + 1] += 1;
-            }
-        }
-        for b in 0..buckets {
-            self.start[b + 1] += self.start[b];
-        }
-        self.items.clear();
-        self.items.resize(self.start[buckets] as usize, 0);
+        self.start.resize(buckets + 2, 0);
         self.cells.clear();
-        self.cells.resize(self.start[buckets] as usize, 0);
-        let mut fill = self.start[..buckets].to_vec();
-        for (k, &b) in self.keys.iter().enumerate() {
-            if b != u32::MAX {
-                let slot = fill[b as usize] as usize;
-                self.items[slot] = k as u32;
-                self.cells[slot] = self.packed[k];
-                fill[b as usize] += 1;
-            }
+        self.cells.resize(count, 0);
+        self.items.clear();
+        self.items.resize(count, 0);
+        // Count into `start[b + 2]`, sum so that `start[b + 1]` is bucket b's first slot, then fill by
+        // advancing `start[b + 1]`: afterwards `start[b]..start[b + 1]` is bucket b (a stable counting sort in
+        // index order, with no second table).
+        let mask = self.mask;
+        for &c in &packed {
+            self.start[bucket_of(c, mask) + 2] += 1;
         }
+        for b in 2..buckets + 2 {
+            self.start[b] += self.start[b - 1];
+        }
+        for (&k, &c) in kept.iter().zip(&packed) {
+            let slot = &mut self.start[bucket_of(c, mask) + 1];
+            self.items[*slot as usize] = k;
+            self.cells[*slot as usize] = c;
+            *slot += 1;
+        }
+        self.start.pop();
+        self.kept = kept;
+        self.packed = packed;
     }
 
     fn cell(&self, p: DVec3) -> [i64; 3] {
@@ -73,10 +73,7 @@ impl HashGrid {
     }
 
     fn bucket(&self, c: [i64; 3]) -> usize {
-        let h = (c[0] as u64).wrapping_mul(0x9E37_79B9_7F4A_7C15)
-            ^ (c[1] as u64).wrapping_mul(0xC2B2_AE3D_27D4_EB4F)
-            ^ (c[2] as u64).wrapping_mul(0x1656_67B1_9E37_79F9);
-        ((h ^ (h >> 29)) as usize) & self.mask
+        bucket_of(pack(c), self.mask)
     }
 
     /// Calls `f` on every point whose cell meets the box `[lo, hi]`, each once, in cell order (all points when
@@ -106,8 +103,57 @@ impl HashGrid {
     }
 }
 
+/// The bucket of a packed cell key: splitmix64's finaliser, so that every axis reaches the low bits the mask
+/// keeps (a single multiply left `x`, packed highest, out of tables under 2^13 buckets).
+#[inline]
+fn bucket_of(key: u64, mask: usize) -> usize {
+    let mut h = key;
+    h = (h ^ (h >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+    h = (h ^ (h >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+    ((h ^ (h >> 31)) as usize) & mask
+}
+
 /// A cell's key: 21 bits per axis (cells 2^21 apart share a key; a query never spans that many, see `query`).
 fn pack(c: [i64; 3]) -> u64 {
     let m = (1u64 << 21) - 1;
     ((c[0] as u64 & m) << 42) | ((c[1] as u64 & m) << 21) | (c[2] as u64 & m)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A query visits exactly the kept points whose cells meet its box, each once, in cell order and in index
+    /// order within a cell, whatever the bucket count (a grid keeping few of many points has few buckets, so
+    /// many cells share one).
+    #[test]
+    fn a_query_visits_the_kept_points_of_its_cells_once() {
+        let mut seed = 7u64;
+        let mut next = || {
+            seed = seed.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            (seed >> 11) as f64 / (1u64 << 53) as f64
+        };
+        let pts: Vec<DVec3> = (0..2000).map(|_| DVec3::new(next(), next(), next()) * 2.0 - 1.0).collect();
+        let cell = 0.13;
+        let c = |p: DVec3| (p / cell).floor();
+        for keep_every in [1, 10, 97] {
+            let mut g = HashGrid::default();
+            g.build(cell, pts.len(), |k| (k % keep_every == 0).then_some(pts[k]));
+            assert_eq!(g.mask + 1, (2 * pts.len().div_ceil(keep_every)).next_power_of_two().max(64));
+            for q in 0..50 {
+                let lo = pts[q * 7] - 0.2;
+                let hi = lo + DVec3::new(0.3, 0.15, 0.45);
+                let mut got = Vec::new();
+                g.query(lo, hi, |i| got.push(i));
+                let (a, b) = (c(lo), c(hi));
+                let mut want: Vec<(DVec3, u32)> = (0..pts.len())
+                    .filter(|&k| k % keep_every == 0 && c(pts[k]).cmpge(a).all() && c(pts[k]).cmple(b).all())
+                    .map(|k| (c(pts[k]), k as u32))
+                    .collect();
+                // Cell order: x, then y, then z, as the query loops.
+                want.sort_by(|(p, i), (r, j)| (p.x, p.y, p.z, i).partial_cmp(&(r.x, r.y, r.z, j)).unwrap());
+                assert_eq!(got, want.iter().map(|&(_, k)| k).collect::<Vec<_>>(), "keep 1 in {keep_every}, query {q}");
+            }
+        }
+    }
 }

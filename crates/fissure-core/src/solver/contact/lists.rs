@@ -124,40 +124,69 @@ impl<R: Real> ContactScratch<R> {
                 searched(t, tri_box(corners)).then_some(c)
             }));
         }
-        // The grids, each over its own elements (in parallel: a build is a counting sort in index order, the
-        // same whichever thread runs it). Edge midpoints go in cells of `radius + l_max`: an edge's query box
-        // (its box grown by the reach below) spans at most 3 cells a side.
+        // The body with the most contact edges, when it does not collide with itself: its elements go into grids
+        // of their own, which only the other bodies' elements search (its own pairs are not allowed), so its
+        // searches no longer visit its own elements. On the fracture scene, where the broken ball lies among
+        // the blocks it lost, three quarters of the edge searches' visits were the ball's own edges.
+        let big = {
+            let mut count = vec![0u32; nb];
+            edges.iter().for_each(|e| count[m.particle_body[e[0] as usize] as usize] += 1);
+            (0..nb).max_by_key(|&b| (count[b], std::cmp::Reverse(b))).filter(|&b| !m.body_self_contact[b])
+        };
+        let in_big = |b: u32| big == Some(b as usize);
+        // The grids, each over its own elements, the big body's apart (in parallel: a build is a counting sort
+        // in index order, the same whichever thread runs it). Edge midpoints go in cells of `radius + l_max`: an
+        // edge's query box (its box grown by the reach below) spans at most 3 cells a side.
         let (eboxes, centroids) = (&self.eboxes, &self.centroids);
-        let vertices = |g: &mut HashGrid| {
+        let vertices = |g: &mut HashGrid, of_big: bool| {
             g.build(cell, parts.len(), |k| {
                 let (v, p) = (parts[k], x(parts[k]));
-                in_grid(v, p).then_some(p)
+                (in_big(m.particle_body[v as usize]) == of_big && in_grid(v, p)).then_some(p)
             })
         };
-        let midpoints = |g: &mut HashGrid| {
+        let midpoints = |g: &mut HashGrid, of_big: bool| {
             g.build(radius + l_max, edges.len(), |k| {
                 let [lo, hi] = eboxes[k];
                 let b = m.particle_body[edges[k][0] as usize];
-                (active[b as usize] && worth(b, lo - pad, hi + pad)).then(|| 0.5 * (lo + hi))
+                (in_big(b) == of_big && active[b as usize] && worth(b, lo - pad, hi + pad)).then(|| 0.5 * (lo + hi))
             })
         };
-        let tri_centroids = |g: &mut HashGrid| {
+        let tri_centroids = |g: &mut HashGrid, of_big: bool| {
             if hot.is_some() {
-                g.build(cell, centroids.len(), |k| centroids[k]);
+                g.build(cell, centroids.len(), |k| {
+                    centroids[k].filter(|_| in_big(m.tri_body[el.tris[k] as usize]) == of_big)
+                });
             }
         };
-        let (grid, egrid, tgrid) = (&mut self.grid, &mut self.egrid, &mut self.tgrid);
+        let [grid, grid_big] = &mut self.grid;
+        let [egrid, egrid_big] = &mut self.egrid;
+        let [tgrid, tgrid_big] = &mut self.tgrid;
         #[cfg(feature = "parallel")]
         let parallel = parts.len() + edges.len() >= PAR_BUILD && crate::par::rayon_free();
         #[cfg(not(feature = "parallel"))]
         let parallel = false;
+        let vertices = |a: &mut HashGrid, b: &mut HashGrid| {
+            vertices(a, false);
+            vertices(b, true);
+        };
+        let midpoints = |a: &mut HashGrid, b: &mut HashGrid| {
+            midpoints(a, false);
+            midpoints(b, true);
+        };
+        let tri_centroids = |a: &mut HashGrid, b: &mut HashGrid| {
+            tri_centroids(a, false);
+            tri_centroids(b, true);
+        };
         if parallel {
             #[cfg(feature = "parallel")]
-            rayon::join(|| vertices(grid), || rayon::join(|| midpoints(egrid), || tri_centroids(tgrid)));
+            rayon::join(
+                || vertices(grid, grid_big),
+                || rayon::join(|| midpoints(egrid, egrid_big), || tri_centroids(tgrid, tgrid_big)),
+            );
         } else {
-            vertices(grid);
-            midpoints(egrid);
-            tri_centroids(tgrid);
+            vertices(grid, grid_big);
+            midpoints(egrid, egrid_big);
+            tri_centroids(tgrid, tgrid_big);
         }
         // A refresh searches again from the triangles with a hot corner and the edges with a hot end, and from
         // each hot vertex the triangles (without a hot corner) whose centroids are within `radius + c_reach` of it
@@ -179,6 +208,14 @@ impl<R: Real> ContactScratch<R> {
             edges_again.extend(el.edge_ids.iter().copied().filter(|&e| emask[e as usize]));
         }
         let (grid, egrid) = (&self.grid, &self.egrid);
+        // Visits what an element of a body searches: the other bodies' grid, and the big body's unless it is
+        // the searcher's own.
+        let search = |[rest, big]: &[HashGrid; 2], from_big: bool, lo: DVec3, hi: DVec3, mut f: &mut dyn FnMut(u32)| {
+            rest.query(lo, hi, &mut f);
+            if !from_big {
+                big.query(lo, hi, f);
+            }
+        };
         let r2 = radius * radius;
         // Vertex `v` at `p` against triangle `t` (corners `tv` at `c`, search box `bx`), from either side of a
         // search: a pair if allowed and closer than `radius`.
@@ -196,7 +233,7 @@ impl<R: Real> ContactScratch<R> {
         };
         let mut vt = Vec::new();
         let tris = if hot.is_some() { &tris_again } else { &el.tris };
-        extend_chunks(&mut vt, tris, PAR_BUILD, |tris, out| {
+        extend_chunks(&mut vt, &mut Vec::new(), tris, PAR_BUILD, |tris, out| {
             for &t in tris {
                 let tv = m.tri_indices[t as usize];
                 let c = tv.map(x);
@@ -205,7 +242,7 @@ impl<R: Real> ContactScratch<R> {
                     continue;
                 }
                 let from = out.len();
-                grid.query(bx.0, bx.1, |k| {
+                search(grid, in_big(m.tri_body[t as usize]), bx.0, bx.1, &mut |k| {
                     let v = parts[k as usize];
                     if vt_near(v, x(v), t, tv, c, bx) {
                         out.push([v, t]);
@@ -222,13 +259,13 @@ impl<R: Real> ContactScratch<R> {
             // point within `radius` of the vertex has its centroid within `radius + c_reach`.
             let (tgrid, tmask) = (&self.tgrid, &tmask);
             let reach = DVec3::splat(radius + c_reach);
-            extend_chunks(&mut vt, hot, PAR_HOT, |hot, out| {
+            extend_chunks(&mut vt, &mut Vec::new(), hot, PAR_HOT, |hot, out| {
                 for &v in hot {
                     let p = x(v);
                     if !in_grid(v, p) {
                         continue;
                     }
-                    tgrid.query(p - reach, p + reach, |k| {
+                    search(tgrid, in_big(m.particle_body[v as usize]), p - reach, p + reach, &mut |k| {
                         let t = el.tris[k as usize];
                         if tmask[t as usize] {
                             return;
@@ -246,7 +283,7 @@ impl<R: Real> ContactScratch<R> {
         let mut ee = Vec::new();
         let ids = if hot.is_some() { &edges_again } else { &el.edge_ids };
         let both = hot.is_some();
-        extend_chunks(&mut ee, ids, PAR_BUILD, |ks, out| {
+        extend_chunks(&mut ee, &mut Vec::new(), ids, PAR_BUILD, |ks, out| {
             for &e in ks {
                 let e = e as usize;
                 let [a0, a1] = edges[e];
@@ -259,7 +296,7 @@ impl<R: Real> ContactScratch<R> {
                     continue;
                 }
                 let from = out.len();
-                egrid.query(lo, hi, |f| {
+                search(egrid, in_big(eb), lo, hi, &mut |f| {
                     let f = f as usize;
                     if f == e || (f < e && !both) {
                         return;

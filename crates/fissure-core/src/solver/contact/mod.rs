@@ -33,26 +33,56 @@ const SHRINK: f64 = 1.15;
 /// Elements per parallel task of the candidate search.
 const TASK: usize = 512;
 
-/// Appends to `out` what `f` makes of `items`, in order: in parallel chunks of [`TASK`] when there are at least
-/// `min` items, else in one call on this thread straight into `out` (the same result either way: `f` maps each
-/// item on its own).
-fn extend_chunks<T: Sync, U: Send>(out: &mut Vec<U>, items: &[T], min: usize, f: impl Fn(&[T], &mut Vec<U>) + Sync) {
+/// Appends to `out` what `f` makes of `items`, in order: in parallel chunks of [`TASK`] on rayon's pool when
+/// there are at least `min` items, in pieces of [`TEAM_TASK`] on the team when this thread holds it (see
+/// [`crate::team`]: its helpers spin while the contact pass runs; the pieces' outputs go through `bufs`, kept by
+/// a caller that runs every step), else in one call on this thread straight into `out`. The same result each way:
+/// `f` maps each item on its own, and the pieces' outputs are joined in order.
+fn extend_chunks<T: Sync, U: Send>(
+    out: &mut Vec<U>,
+    bufs: &mut Vec<Vec<U>>,
+    items: &[T],
+    min: usize,
+    f: impl Fn(&[T], &mut Vec<U>) + Sync,
+) {
     #[cfg(feature = "parallel")]
-    if items.len() >= min && crate::par::rayon_free() {
-        let parts: Vec<Vec<U>> = items
-            .par_chunks(TASK)
-            .map(|c| {
-                let mut v = Vec::new();
-                f(c, &mut v);
-                v
-            })
-            .collect();
-        parts.into_iter().for_each(|p| out.extend(p));
-        return;
+    {
+        if items.len() >= min && crate::par::rayon_free() {
+            let parts: Vec<Vec<U>> = items
+                .par_chunks(TASK)
+                .map(|c| {
+                    let mut v = Vec::new();
+                    f(c, &mut v);
+                    v
+                })
+                .collect();
+            parts.into_iter().for_each(|p| out.extend(p));
+            return;
+        }
+        if items.len() >= 2 * TEAM_TASK && crate::par::teamed() {
+            let pieces = items.len().div_ceil(TEAM_TASK);
+            if bufs.len() < pieces {
+                bufs.resize_with(pieces, Vec::new);
+            }
+            let slots = crate::par::Pieces::new(&mut bufs[..pieces], 1);
+            crate::par::exec(false, pieces, &|k| {
+                // SAFETY: `exec` runs each piece index once.
+                let buf = &mut unsafe { slots.get(k) }[0];
+                buf.clear();
+                f(&items[k * TEAM_TASK..((k + 1) * TEAM_TASK).min(items.len())], buf);
+            });
+            bufs[..pieces].iter_mut().for_each(|b| out.append(b));
+            return;
+        }
     }
-    let _ = min;
+    let _ = (min, bufs);
     f(items, out);
 }
+
+/// Items per piece of a contact search or pair evaluation on the team: a triangle's or an edge's search costs
+/// ~0.3–1 µs, a pair's evaluation ~20 ns.
+#[cfg(feature = "parallel")]
+const TEAM_TASK: usize = 32;
 
 /// Pair evaluations cost a box test and at most a closest-point computation: parallel from this many.
 const PAR_NEAR: usize = 32 * TASK;
@@ -112,14 +142,17 @@ pub(super) struct ContactScratch<R: Real> {
     vt: Vec<[u32; 2]>,
     ee: Vec<[u32; 2]>,
     pairs: Vec<Pair>,
+    /// The pieces of `pairs` when the team evaluates them (kept: the pass runs every step).
+    pair_pieces: Vec<Vec<Pair>>,
     dv: Vec<DVec3>,
     bound: Vec<f64>,
     touched: Vec<u32>,
     hot: Vec<u32>,
-    grid: HashGrid,
-    egrid: HashGrid,
-    /// Triangle centroids (refreshes only).
-    tgrid: HashGrid,
+    /// Vertices, edge midpoints and triangle centroids (refreshes only), each of the bodies but the largest,
+    /// then of the largest (see `lists`).
+    grid: [HashGrid; 2],
+    egrid: [HashGrid; 2],
+    tgrid: [HashGrid; 2],
     /// The searched triangles' centroids (refreshes only; `None`: not searched).
     centroids: Vec<Option<DVec3>>,
     /// Each edge's box at `x0` when the candidates were found (one contiguous load per edge a query visits).
@@ -182,8 +215,9 @@ impl<R: Real> ContactScratch<R> {
         };
         // Vertex–triangle pairs, then edge–edge pairs, each in their list's order.
         self.pairs.clear();
-        extend_chunks(&mut self.pairs, &self.vt, PAR_NEAR, |c, o| o.extend(c.iter().filter_map(vt_pair)));
-        extend_chunks(&mut self.pairs, &self.ee, PAR_NEAR, |c, o| o.extend(c.iter().filter_map(ee_pair)));
+        let bufs = &mut self.pair_pieces;
+        extend_chunks(&mut self.pairs, bufs, &self.vt, PAR_NEAR, |c, o| o.extend(c.iter().filter_map(vt_pair)));
+        extend_chunks(&mut self.pairs, bufs, &self.ee, PAR_NEAR, |c, o| o.extend(c.iter().filter_map(ee_pair)));
     }
 }
 
