@@ -114,21 +114,51 @@ pub(crate) struct Elements {
 }
 
 impl Elements {
+    /// The elements of `m` in index order: edges sorted by (lower end, upper end), particles ascending. Built
+    /// after every fracture event, so in linear time: the edges bucketed by their lower end (a counting sort),
+    /// each bucket's few upper ends sorted and deduplicated, the particles marked (sorting the 3 × triangles
+    /// half-edges took the fracture scene ~140 µs an event).
     pub fn of<R: Real>(m: &Model<R>) -> Self {
         let on = |b: u32| m.body_contact_thickness.get(b as usize).is_some_and(|&h| h > R::ZERO);
         let tris: Vec<u32> = (0..m.tri_count() as u32).filter(|&t| on(m.tri_body[t as usize])).collect();
-        let mut edges: Vec<[u32; 2]> = tris
-            .iter()
-            .flat_map(|&t| {
-                let [a, b, c] = m.tri_indices[t as usize];
-                [[a, b], [b, c], [c, a]].map(|[i, j]| [i.min(j), i.max(j)])
-            })
-            .collect();
-        edges.sort_unstable();
-        edges.dedup();
-        let mut particles: Vec<u32> = tris.iter().flat_map(|&t| m.tri_indices[t as usize]).collect();
-        particles.sort_unstable();
-        particles.dedup();
+        let n = m.particle_count();
+        let half = |t: u32| {
+            let [a, b, c] = m.tri_indices[t as usize];
+            [[a, b], [b, c], [c, a]].map(|[i, j]| [i.min(j), i.max(j)])
+        };
+        let mut start = vec![0u32; n + 2];
+        let mut used = vec![false; n];
+        for &t in &tris {
+            for [i, j] in half(t) {
+                start[i as usize + 2] += 1;
+                used[i as usize] = true;
+                used[j as usize] = true;
+            }
+        }
+        for i in 2..n + 2 {
+            start[i] += start[i - 1];
+        }
+        let mut upper = vec![0u32; start[n + 1] as usize];
+        for &t in &tris {
+            for [i, j] in half(t) {
+                let slot = &mut start[i as usize + 1];
+                upper[*slot as usize] = j;
+                *slot += 1;
+            }
+        }
+        let mut edges: Vec<[u32; 2]> = Vec::with_capacity(upper.len() / 2 + 1);
+        for i in 0..n {
+            let ends = &mut upper[start[i] as usize..start[i + 1] as usize];
+            ends.sort_unstable();
+            let mut last = None;
+            for &j in ends.iter() {
+                if last != Some(j) {
+                    edges.push([i as u32, j]);
+                    last = Some(j);
+                }
+            }
+        }
+        let particles: Vec<u32> = (0..n as u32).filter(|&i| used[i as usize]).collect();
         let h_max = m.body_contact_thickness.iter().map(|h| h.to_f64()).fold(0.0, f64::max);
         let edge_ids = (0..edges.len() as u32).collect();
         Elements { tris, edges, edge_ids, particles, h_max }
@@ -199,4 +229,46 @@ pub fn crossings<R: Real>(m: &Model<R>, q: &[R::V]) -> Vec<[u32; 2]> {
 /// The contact thickness of body `b` \[m\] (0: no contact), as `f64`.
 pub fn thickness<R: Real>(m: &Model<R>, b: usize) -> f64 {
     m.body_contact_thickness[b].to_f64()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::mesh::Mesh;
+    use crate::model::{ClothOptions, ModelBuilder, SoftBodyOptions};
+    use glam::DVec3;
+
+    /// The linear-time build lists what sorting the half-edges lists: a closed ball (each edge twice), an open
+    /// cloth (boundary edges once) and a body without contact (left out), renumbered so that lower ends vary.
+    #[test]
+    fn elements_are_the_sorted_unique_edges_of_the_contact_triangles() {
+        let mut b = ModelBuilder::new();
+        let off = b.add_soft_body(&Mesh::icosphere(0.2, 2), &SoftBodyOptions::default()).unwrap();
+        let ball = b.add_soft_body(&Mesh::icosphere(0.2, 2).translated(DVec3::X), &SoftBodyOptions::default()).unwrap();
+        let cloth = b.add_cloth(&Mesh::grid(7, 5, 0.05), &ClothOptions::default()).unwrap();
+        b.set_contact(ball.index, Contact::default()).unwrap();
+        b.set_contact(cloth.index, Contact::default()).unwrap();
+        let m = b.finalize::<f64>().unwrap();
+        let el = Elements::of(&m);
+        let tris: Vec<u32> =
+            (0..m.tri_count() as u32).filter(|&t| m.tri_body[t as usize] as usize != off.index).collect();
+        let mut edges: Vec<[u32; 2]> = tris
+            .iter()
+            .flat_map(|&t| {
+                let [a, b, c] = m.tri_indices[t as usize];
+                [[a, b], [b, c], [c, a]].map(|[i, j]| [i.min(j), i.max(j)])
+            })
+            .collect();
+        edges.sort_unstable();
+        edges.dedup();
+        let mut particles: Vec<u32> = tris.iter().flat_map(|&t| m.tri_indices[t as usize]).collect();
+        particles.sort_unstable();
+        particles.dedup();
+        assert_eq!(el.tris, tris);
+        assert_eq!(el.edges, edges);
+        assert_eq!(el.particles, particles);
+        assert_eq!(el.edge_ids, (0..edges.len() as u32).collect::<Vec<_>>());
+        // The ball's 3 × 320 / 2 edges; the 7 × 5 grid's 6 × 5 + 7 × 4 on its lines and 6 × 4 diagonals.
+        assert_eq!(edges.len(), 480 + 30 + 28 + 24);
+    }
 }
