@@ -68,8 +68,15 @@ impl HashGrid {
         self.packed = packed;
     }
 
+    /// The cell of `p`: `floor(p / cell)` per axis. The floor is taken on the integer (truncate, then one down
+    /// below zero): `f64::floor` is a call into libm on the x86-64 baseline (no SSE4.1), and a build takes a
+    /// cell per point. The same cells for every finite coordinate (and `x as i64` saturates as before).
+    #[inline]
     fn cell(&self, p: DVec3) -> [i64; 3] {
-        (p * self.inv_cell).floor().to_array().map(|x| x as i64)
+        (p * self.inv_cell).to_array().map(|x| {
+            let t = x as i64;
+            t.saturating_sub(((t as f64) > x) as i64)
+        })
     }
 
     fn bucket(&self, c: [i64; 3]) -> usize {
@@ -122,6 +129,31 @@ fn pack(c: [i64; 3]) -> u64 {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The integer floor agrees with `f64::floor` (then `as i64`) at integers, just below and above them, on
+    /// both sides of zero, and where the conversion saturates.
+    #[test]
+    fn cells_are_floors() {
+        let g = HashGrid { inv_cell: 1.0, ..Default::default() };
+        for x in [
+            0.0,
+            -0.0,
+            0.5,
+            -0.5,
+            1.0,
+            -1.0,
+            1.0 - 1e-16,
+            -1.0 + 1e-16,
+            -1e-300,
+            3.0e9,
+            -3.0e9 - 0.5,
+            1e30,
+            -1e30,
+            f64::NAN,
+        ] {
+            assert_eq!(g.cell(DVec3::splat(x)), [x.floor() as i64; 3], "{x}");
+        }
+    }
 
     /// A query visits exactly the kept points whose cells meet its box, each once, in cell order and in index
     /// order within a cell, whatever the bucket count (a grid keeping few of many points has few buckets, so
