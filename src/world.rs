@@ -144,6 +144,8 @@ impl<R: Real> World<R> {
             }
             self.batch(h, n, &mut out).await?;
         }
+        // A duration's steps are done: helper threads need not wait busily for the next (see `Solver::rest`).
+        self.solver.rest();
         self.solver.sync_state_async(&mut self.state).await?;
         Ok(out)
     }

@@ -186,6 +186,9 @@ pub trait Solver<R: Real>: Send + Sync {
     /// Tells the solver what changed in the model: after a fracture, the pass's [`TopologyDelta`]; after editing
     /// parameters by hand, [`TopologyDelta::whole`].
     fn notify_model_changed(&mut self, model: &Model<R>, delta: &TopologyDelta);
+    /// The caller is done stepping for a while (a frame's advance ended; drawing or other work follows): a
+    /// backend with threads that wait busily for the next step lets them sleep. Default: nothing to do.
+    fn rest(&mut self) {}
     /// Per-stage time spent so far.
     fn timers(&self) -> &StageTimers;
     /// Clears the stage timers.
@@ -602,6 +605,11 @@ impl<R: Real> Solver<R> for CpuSolver<R> {
 
     fn name(&self) -> &'static str {
         "cpu"
+    }
+
+    fn rest(&mut self) {
+        #[cfg(feature = "parallel")]
+        crate::team::rest();
     }
 }
 
