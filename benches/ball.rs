@@ -4,7 +4,8 @@
 //! 100 core splits. Two shuffles: the triangles in a random order (so springs and triangles arrive shuffled and
 //! the particles keep the mesh's numbering: the row, where `finalize` chooses the order of springs and
 //! triangles), and the vertices renumbered at random as well (a mesh whose own numbering has no locality: the
-//! particle index is the user's, so `finalize` keeps it).
+//! particle index is the user's, so `finalize` keeps it), and that mesh renumbered for locality
+//! (`Mesh::renumbered_for_locality`, reverse Cuthill–McKee).
 //!
 //! Run: `cargo bench --bench ball` (prints µs per step and the ratios, then criterion's figures).
 //! `FISSURE_BENCH_QUICK=1` runs the 642-vertex ball only, briefly, as CI does.
@@ -35,13 +36,17 @@ enum Order {
     Triangles,
     /// The vertices renumbered at random and the triangles reordered.
     Everything,
+    /// [`Order::Everything`], then `Mesh::renumbered_for_locality` (reverse Cuthill–McKee).
+    Renumbered,
 }
 
 /// The icosphere of `subdivisions`, numbered as `order` says.
 fn mesh(subdivisions: u32, order: Order) -> Mesh {
     let m = Mesh::icosphere(0.25, subdivisions).translated(DVec3::new(0.0, 0.3, 0.0));
-    if order == Order::Original {
-        return m;
+    match order {
+        Order::Original => return m,
+        Order::Renumbered => return mesh(subdivisions, Order::Everything).renumbered_for_locality().0,
+        _ => {}
     }
     let mut seed = 42;
     let n = m.vertex_count();
@@ -109,6 +114,7 @@ fn bench(c: &mut Criterion) {
         for (order, what) in [
             (Order::Triangles, "springs and triangles shuffled"),
             (Order::Everything, "vertices renumbered, springs and triangles shuffled"),
+            (Order::Renumbered, "that mesh renumbered by Mesh::renumbered_for_locality"),
         ] {
             let mut ws = World::new(ball(sub, order, false), SolverConfig::default());
             let shuffled = (0..3).map(|_| time_world(&mut ws, steps)).fold(f64::INFINITY, f64::min);

@@ -31,7 +31,7 @@ pub use fracture::{
     Fracture, FractureConfig, FractureEvent, FractureKind, Measures, TopologyDelta, Trigger, check_invariants,
 };
 pub use glam;
-pub use mesh::Mesh;
+pub use mesh::{Mesh, Renumbering};
 pub use model::{
     BodyHandle, BodyKind, BodyRow, Breakable, ClothOptions, Damping, DampingModel, Energy, Gas, Handle, Mass, Model,
     ModelBuilder, Opening, ParticleRow, SoftBodyOptions, SpringKind, SpringRow, SpringRun, State, Stiffness, TriRow,

@@ -11,6 +11,16 @@ use std::collections::HashMap;
 use std::fmt::Write as _;
 use std::path::Path;
 
+/// Where [`Mesh::renumbered_for_locality`] moved each vertex and triangle: `vertex[old] = new`,
+/// `triangle[old] = new` (for per-vertex or per-face data of the original mesh).
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct Renumbering {
+    /// The new index of each old vertex.
+    pub vertex: Vec<u32>,
+    /// The new index of each old triangle.
+    pub triangle: Vec<u32>,
+}
+
 /// A validated triangle mesh.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Mesh {
@@ -169,6 +179,100 @@ impl Mesh {
     /// A copy moved by `offset` \[m\].
     pub fn translated(&self, offset: DVec3) -> Mesh {
         Mesh { positions: self.positions.iter().map(|&p| p + offset).collect(), triangles: self.triangles.clone() }
+    }
+
+    /// The same surface with its vertices renumbered for locality and its triangles in their order, and where
+    /// each old vertex and triangle went ([`Renumbering`]). A model keeps the particle numbering of the meshes it is built from (it is the
+    /// user's: pins, handles and the positions read back use it), and `finalize` orders the springs and
+    /// triangles to follow it; a mesh whose numbering has no locality (vertices in random order, as some
+    /// exporters and tetrahedral meshers leave them) makes each particle's springs and triangles lie far apart
+    /// in memory, and on two threads half of the gather's reads fall on what the other core wrote. Renumbering
+    /// such a mesh first restores the fast path: on the 2,562-vertex pressurised ball with its vertices shuffled,
+    /// `benches/ball.rs` measures the step before and after (see `benches/RESULTS.md`, issue 15).
+    ///
+    /// The order is reverse Cuthill–McKee, part by part: each connected part (in order of its least vertex)
+    /// breadth-first from its vertex of least degree, neighbours in order of degree then index, then reversed.
+    /// Deterministic. The triangles are then sorted by their corners (least first; winding kept): a shuffled
+    /// triangle order alone cost the 2,562-vertex ball ~7 %.
+    pub fn renumbered_for_locality(&self) -> (Mesh, Renumbering) {
+        let n = self.positions.len();
+        // Vertex adjacency (each edge both ways), sorted and deduplicated per vertex.
+        let mut adj: Vec<Vec<u32>> = vec![Vec::new(); n];
+        for t in &self.triangles {
+            for (a, b) in [(t[0], t[1]), (t[1], t[2]), (t[2], t[0])] {
+                adj[a as usize].push(b);
+                adj[b as usize].push(a);
+            }
+        }
+        for a in &mut adj {
+            a.sort_unstable();
+            a.dedup();
+        }
+        let degree = |v: u32| adj[v as usize].len();
+        let mut seen = vec![false; n];
+        let mut order: Vec<u32> = Vec::with_capacity(n);
+        let mut part_start = 0;
+        for v0 in 0..n as u32 {
+            if seen[v0 as usize] {
+                continue;
+            }
+            // The part of `v0` (its least vertex: parts are met in order of it), by a depth-first sweep; its
+            // vertex of least degree (ties: the least index) starts the breadth-first order.
+            let part: Vec<u32> = {
+                let (mut stack, mut members) = (vec![v0], Vec::new());
+                seen[v0 as usize] = true;
+                while let Some(v) = stack.pop() {
+                    members.push(v);
+                    for &w in &adj[v as usize] {
+                        if !seen[w as usize] {
+                            seen[w as usize] = true;
+                            stack.push(w);
+                        }
+                    }
+                }
+                members
+            };
+            let start = *part.iter().min_by_key(|&&v| (degree(v), v)).expect("a part has a vertex");
+            // Breadth-first over the part, reusing `seen` as "not yet ordered" for its members.
+            for &v in &part {
+                seen[v as usize] = false;
+            }
+            seen[start as usize] = true;
+            order.push(start);
+            let mut head = part_start;
+            while head < order.len() {
+                let v = order[head];
+                head += 1;
+                let mut next: Vec<u32> = adj[v as usize].iter().copied().filter(|&w| !seen[w as usize]).collect();
+                next.sort_by_key(|&w| (degree(w), w));
+                for w in next {
+                    seen[w as usize] = true;
+                    order.push(w);
+                }
+            }
+            order[part_start..].reverse();
+            part_start = order.len();
+        }
+        let mut new_of_old = vec![0u32; n];
+        for (new, &old) in order.iter().enumerate() {
+            new_of_old[old as usize] = new as u32;
+        }
+        let positions = order.iter().map(|&old| self.positions[old as usize]).collect();
+        let mapped: Vec<[u32; 3]> = self.triangles.iter().map(|t| t.map(|v| new_of_old[v as usize])).collect();
+        // The triangles in the vertices' order too: by their corners sorted (least first), winding kept.
+        let key = |t: &[u32; 3]| {
+            let mut k = *t;
+            k.sort_unstable();
+            k
+        };
+        let mut tri_order: Vec<u32> = (0..mapped.len() as u32).collect();
+        tri_order.sort_by_key(|&t| (key(&mapped[t as usize]), t));
+        let mut triangle = vec![0u32; mapped.len()];
+        for (new, &old) in tri_order.iter().enumerate() {
+            triangle[old as usize] = new as u32;
+        }
+        let triangles = tri_order.iter().map(|&t| mapped[t as usize]).collect();
+        (Mesh { positions, triangles }, Renumbering { vertex: new_of_old, triangle })
     }
 
     /// Icosphere of `radius` \[m\]: an icosahedron subdivided `subdivisions` times, vertices projected onto the

@@ -254,3 +254,76 @@ fn membrane_stiffness_is_resolution_independent() {
     assert!(coarse < 0.0 && fine < 0.0);
     assert!((coarse / fine - 1.0).abs() < 0.05, "edge force {coarse} N (9²) vs {fine} N (33²)");
 }
+
+/// A mesh's vertices in a fixed random order (splitmix64), its triangles remapped.
+fn shuffled(m: &Mesh, seed: u64) -> Mesh {
+    let mut seed = seed;
+    let mut next = || {
+        seed = seed.wrapping_add(0x9E37_79B9_7F4A_7C15);
+        let mut z = seed;
+        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+        z ^ (z >> 31)
+    };
+    let n = m.vertex_count();
+    let mut perm: Vec<u32> = (0..n as u32).collect();
+    for i in (1..n).rev() {
+        perm.swap(i, (next() % (i as u64 + 1)) as usize);
+    }
+    let mut positions = vec![DVec3::ZERO; n];
+    for (old, &new) in perm.iter().enumerate() {
+        positions[new as usize] = m.positions()[old];
+    }
+    Mesh::new(positions, m.triangles().iter().map(|t| t.map(|v| perm[v as usize])).collect()).unwrap()
+}
+
+/// The largest index gap over the mesh's edges.
+fn bandwidth(m: &Mesh) -> u32 {
+    m.triangles().iter().flat_map(|t| [t[0].abs_diff(t[1]), t[1].abs_diff(t[2]), t[2].abs_diff(t[0])]).max().unwrap()
+}
+
+/// Reverse Cuthill–McKee on a ball whose vertices were shuffled, beside a cloth and a second ball (three
+/// parts): the same surface (every vertex and triangle where the maps send them, winding kept), permutations,
+/// triangles in the vertices' order, and a bandwidth of the order of a BFS level's width rather than of the
+/// vertex count.
+#[test]
+fn renumbering_for_locality_keeps_the_surface_and_brings_neighbours_together() {
+    let ball = shuffled(&Mesh::icosphere(0.25, 4), 42);
+    let cloth = Mesh::grid(20, 30, 0.01);
+    let small = Mesh::icosphere(0.1, 2).translated(DVec3::X);
+    let (mut p, mut t) = (ball.positions().to_vec(), ball.triangles().to_vec());
+    for m in [&cloth, &small] {
+        let off = p.len() as u32;
+        p.extend_from_slice(m.positions());
+        t.extend(m.triangles().iter().map(|tri| tri.map(|v| v + off)));
+    }
+    let all = Mesh::new(p, t).unwrap();
+    let (r, map) = all.renumbered_for_locality();
+    let new_of_old = &map.vertex;
+    let n = all.vertex_count();
+    let mut hit = vec![false; n];
+    for (old, &new) in new_of_old.iter().enumerate() {
+        assert!(!std::mem::replace(&mut hit[new as usize], true), "vertex {new} used twice");
+        assert_eq!(r.positions()[new as usize], all.positions()[old]);
+    }
+    let mut hit = vec![false; all.triangle_count()];
+    for (old, t) in all.triangles().iter().enumerate() {
+        let new = map.triangle[old] as usize;
+        assert!(!std::mem::replace(&mut hit[new], true), "triangle {new} used twice");
+        assert_eq!(t.map(|v| new_of_old[v as usize]), r.triangles()[new]);
+    }
+    // The triangles follow the vertices: sorted by their sorted corners.
+    let key = |t: &[u32; 3]| {
+        let mut k = *t;
+        k.sort_unstable();
+        k
+    };
+    assert!(r.triangles().windows(2).all(|w| key(&w[0]) <= key(&w[1])));
+    assert!((r.signed_volume() - all.signed_volume()).abs() < 1e-12 * all.signed_volume());
+    let (before, after) = (bandwidth(&all), bandwidth(&r));
+    // The shuffled ball spans 2,562 indices; a BFS level of it is a ring of ~2π·(14 edges) vertices (83 here).
+    assert!(before > 2000 && after < 150, "bandwidth {before} -> {after}");
+    // The parts stay apart, in order: the shuffled ball's vertices first.
+    assert!(new_of_old[..2562].iter().all(|&v| v < 2562));
+    assert!(new_of_old[2562..3162].iter().all(|&v| (2562..3162).contains(&v)));
+}

@@ -121,6 +121,18 @@ impl Mesh {
         Ok(Mesh { inner: self.inner.translated(vec3("offset", offset)?) })
     }
 
+    /// The same surface with its vertices renumbered for locality (reverse Cuthill–McKee) and its triangles in
+    /// their order: `(mesh, vertex_map, triangle_map)`, the maps uint32 arrays of each old vertex's and
+    /// triangle's new index. For a mesh whose own numbering has no locality: a model keeps the numbering it is
+    /// given, and stepping it is slower when neighbours lie far apart in it.
+    fn renumbered_for_locality<'py>(
+        &self,
+        py: Python<'py>,
+    ) -> (Self, Bound<'py, numpy::PyArray1<u32>>, Bound<'py, numpy::PyArray1<u32>>) {
+        let (mesh, map) = self.inner.renumbered_for_locality();
+        (Mesh { inner: mesh }, numpy::PyArray1::from_vec(py, map.vertex), numpy::PyArray1::from_vec(py, map.triangle))
+    }
+
     /// Positions, a new float64 `(V, 3)` array \[m\].
     #[getter]
     fn positions<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray2<f64>> {

@@ -118,3 +118,20 @@ def test_bad_state_and_step_inputs():
     s2.velocities = np.random.default_rng(0).normal(size=(m2.particle_count, 3))
     with pytest.raises(ValueError, match="blew up"):
         fissure.Solver().step(m2, s2, 1e-2, steps=200)
+
+
+def test_renumbered_for_locality_maps_every_vertex_and_triangle():
+    ball = fissure.Mesh.icosphere(0.25, 3)
+    rng = np.random.default_rng(7)
+    perm = rng.permutation(ball.vertex_count)  # old vertex i becomes perm[i]
+    p = np.empty_like(ball.positions)
+    p[perm] = ball.positions
+    shuffled = fissure.Mesh(p, perm[ball.triangles])
+    mesh, vmap, tmap = shuffled.renumbered_for_locality()
+    assert vmap.dtype == np.uint32 and tmap.dtype == np.uint32
+    assert sorted(vmap.tolist()) == list(range(shuffled.vertex_count))
+    assert np.array_equal(mesh.positions[vmap], shuffled.positions)
+    assert np.array_equal(mesh.triangles[tmap], vmap[shuffled.triangles])
+    edges = lambda m: np.abs(m.triangles.astype(np.int64) - np.roll(m.triangles, 1, axis=1)).max()  # noqa: E731
+    assert edges(shuffled) > 500 and edges(mesh) < 60, (edges(shuffled), edges(mesh))
+    assert abs(mesh.signed_volume() - ball.signed_volume()) < 1e-12
