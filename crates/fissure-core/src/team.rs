@@ -17,9 +17,10 @@
 //!
 //! One team serves the process ([`lease`]): a solver stepping on another thread meanwhile runs its passes as it
 //! would without one. The team is used only outside rayon's pool, with a pool of more than one thread (its
-//! helpers number the pool's threads less one, at most [`MAX_HELPERS`]), and only by models that step without
-//! the pool (see `CpuSolver::advance`); on it, the contact pass's searches, which call rayon directly, run on the
-//! calling thread (`par::rayon_free`): the helpers never compete with the pool's workers for long.
+//! helpers number the pool's threads less one, at most [`MAX_HELPERS`]): by models below the pool's threshold,
+//! and by larger ones where the team has as many threads as the pool ([`covers_pool`]; see
+//! `CpuSolver::advance`). On it, the contact pass's searches run in its pieces or on the calling thread
+//! (`par::rayon_free`): the helpers never compete with the pool's workers for long.
 
 use std::cell::{Cell, UnsafeCell};
 use std::panic::{AssertUnwindSafe, catch_unwind};
@@ -28,10 +29,10 @@ use std::sync::{Arc, OnceLock};
 use std::thread::Thread;
 use std::time::{Duration, Instant};
 
-/// At most this many helpers. The team serves models below `par::PAR_MIN` (16,384) elements, whose passes have
-/// at most 64 pieces of 256, and every thread claims them from one atomic word: past a few threads the claims
-/// contend for its cache line more than the pieces gain. A judgment, not a measurement: the development VM has two
-/// cores (one helper).
+/// At most this many helpers. Every thread claims pieces from one atomic word: past a few threads the claims
+/// contend for its cache line more than the pieces gain, and a larger pool serves large models better (the team
+/// serves them only where it has as many threads as the pool: [`covers_pool`]). A judgment, not a measurement:
+/// the development VM has two cores (one helper).
 const MAX_HELPERS: usize = 3;
 
 /// How long a helper keeps spinning after the last piece it saw before it parks.
@@ -187,6 +188,13 @@ pub(crate) fn rest() {
     if let Some(Some(team)) = TEAM.get() {
         team.rest();
     }
+}
+
+/// Whether the team has as many threads (its helpers and the caller) as rayon's global pool: then it can serve
+/// a model of any size without leaving cores idle that the pool would use.
+pub(crate) fn covers_pool() -> bool {
+    let pool = rayon::current_num_threads();
+    pool.saturating_sub(1).min(MAX_HELPERS) + 1 >= pool
 }
 
 /// The team this thread holds, if any.

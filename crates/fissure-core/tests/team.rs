@@ -1,5 +1,5 @@
-//! The spinning team (`CpuSolver::advance` outside rayon's pool, for models below the pool's size threshold)
-//! gives the bits of one thread. Its own test binary: it sets the global pool to two threads, which the team's
+//! The spinning team (`CpuSolver::advance` outside rayon's pool: models below the pool's size threshold, and
+//! larger ones where the team has as many threads as the pool, as here) gives the bits of one thread. Its own test binary: it sets the global pool to two threads, which the team's
 //! helpers follow (one helper), whatever the machine's core count.
 
 use fissure_core::glam::{DVec3, Vec3};
@@ -7,8 +7,9 @@ use fissure_core::*;
 
 /// A mid-sized scene with every term the team serves: a pressurised ball, breakable (load limits: the fused load
 /// gather) or not (the crosses formed beside the spring pass), a grid cloth (the spring-run kernel), wind, and two
-/// colliders; with `contact`, the cloth starts 5 mm above the ball and both have contact on.
-fn scene(breakable: bool, contact: bool) -> Model<f32> {
+/// colliders; with `contact`, the cloth starts 5 mm above the ball and both have contact on; with `big`, the cloth
+/// has 130 × 130 particles (past the pool's threshold: its passes are cut as a large model's).
+fn scene(breakable: bool, contact: bool, big: bool) -> Model<f32> {
     let mut b = ModelBuilder::new();
     let ball = SoftBodyOptions {
         mass: Mass::Total(0.4),
@@ -25,13 +26,14 @@ fn scene(breakable: bool, contact: bool) -> Model<f32> {
     };
     let h = b.add_soft_body(&Mesh::icosphere(0.25, 4).translated(DVec3::new(0.0, 0.26, 0.0)), &ball).unwrap();
     let y = if contact { 0.515 } else { 0.8 };
+    let (n, spacing) = if big { (130, 0.004) } else { (24, 0.02) };
     let c = b
         .add_cloth_grid(
-            24,
-            24,
-            0.02,
+            n,
+            n,
+            spacing,
             move |p| DVec3::new(p.x - 0.2, y, p.y - 0.2),
-            &ClothOptions { pins: vec![0, 23], mass: Mass::PerParticle(1e-3), ..Default::default() },
+            &ClothOptions { pins: vec![0, n - 1], mass: Mass::PerParticle(1e-3), ..Default::default() },
         )
         .unwrap();
     if contact {
@@ -44,9 +46,10 @@ fn scene(breakable: bool, contact: bool) -> Model<f32> {
     b.finalize().unwrap()
 }
 
-fn run(integrator: Integrator, (breakable, contact): (bool, bool), batch: usize) -> Vec<u32> {
-    let model = scene(breakable, contact);
-    assert!(model.particle_count() < 16_384 && model.spring_count() < 16_384, "below the pool's threshold");
+fn run(integrator: Integrator, (breakable, contact, big): (bool, bool, bool), batch: usize) -> Vec<u32> {
+    let model = scene(breakable, contact, big);
+    let below = model.particle_count() < 16_384 && model.spring_count() < 16_384;
+    assert_eq!(below, !big, "below the pool's threshold, or past it");
     let mut s = model.state();
     let mut solver = CpuSolver::<f32>::with_integrator(integrator);
     let dt = if integrator == Integrator::ImplicitEuler { 2e-3 } else { 1e-4 };
@@ -63,7 +66,7 @@ fn run(integrator: Integrator, (breakable, contact): (bool, bool), batch: usize)
 fn the_team_gives_the_bits_of_one_thread() {
     rayon::ThreadPoolBuilder::new().num_threads(2).build_global().expect("this binary's only global pool");
     let one = rayon::ThreadPoolBuilder::new().num_threads(1).build().unwrap();
-    let kinds = [(true, false), (false, false), (false, true)];
+    let kinds = [(true, false, false), (false, false, false), (false, true, false), (false, false, true)];
     for (integrator, kind) in Integrator::ALL.into_iter().flat_map(|i| kinds.map(|k| (i, k))) {
         let inline = one.install(|| run(integrator, kind, 1));
         // Outside the pool: the team (step by step and in batches).

@@ -218,13 +218,15 @@ pub struct CgStats {
 /// once (what `World::advance` uses), [`Solver::step`] one step; run the stepping loop inside your own pool
 /// (`ThreadPool::install`) and nothing is handed over at all.
 ///
-/// A smaller model, stepped from outside rayon's pool while the pool has more than one thread,
-/// runs its passes on a team of spinning helper threads instead (`crate::team`: one per pool thread less one,
-/// parked after 2 ms without work): its passes of a few microseconds are handed over in about 50 ns, where a
-/// rayon worker's wake-up cost tens of microseconds on the development VM. The 2,562-vertex ball of
-/// `benches/ball.rs` went 57.9–59.0 → 33.4–34.6 µs a step on two threads (2026-11-25, `benches/RESULTS.md`), where
-/// the VM's two vCPUs answered each other in 45 ns; where they took ~400 ns the team lost, and the solver, which
-/// times both ways as it steps (`crate::team::Pick`), stepped on one thread.
+/// A model stepped from outside rayon's pool while the pool has more than one thread runs its passes on a team
+/// of spinning helper threads instead (`crate::team`: one per pool thread less one, at most 3, parked after 2 ms
+/// without work, or at once after `World::advance`): a smaller model always, a large one when the team has as many
+/// threads as the pool. Passes of a few microseconds are handed over in about 50 ns, where a rayon worker's
+/// wake-up cost tens of microseconds on the development VM. The 2,562-vertex ball of `benches/ball.rs` went
+/// 57.9–59.0 → 33.4–34.6 µs a step on two threads (2026-11-25, `benches/RESULTS.md`), where the VM's two vCPUs
+/// answered each other in 45 ns; the 128² cloth 68.7–76.0 → 63.9–65.1 µs against the pool even where they took
+/// ~440 ns (one step per call: 81–95 → 64–66). Where the team loses, the solver, which times both ways as it steps
+/// (`crate::team::Pick`: against one thread for a smaller model, the pool for a large one), steps the other way.
 /// The same bits as one thread (`tests/team.rs`).
 #[derive(Clone, Debug, Default)]
 pub struct CpuSolver<R: Real = f32> {
@@ -536,28 +538,37 @@ impl<R: Real> Solver<R> for CpuSolver<R> {
         // step).
         #[cfg(feature = "parallel")]
         if rayon::current_thread_index().is_none() && par::pool_has_threads() {
-            if par::pooled(model.particle_count().max(model.spring_count())) {
-                return rayon::scope(|_| (0..steps).try_for_each(|_| self.step_inner(model, state, dt)));
-            }
-            // A smaller model's passes go to the spinning team (`crate::team`), when no other thread holds it; the
-            // contact pass's searches then run on this thread (`par::rayon_free`). Whether it pays is measured as
-            // the steps run (`crate::team::Pick`).
-            if let Some(lease) = crate::team::lease() {
+            let big = par::pooled(model.particle_count().max(model.spring_count()));
+            // The model's passes go to the spinning team (`crate::team`), when no other thread holds it: a
+            // smaller model's always, a large one's when the team has as many threads as the pool (its helpers
+            // are capped; on the 2-core VM, 2026-11-25, the team stepped the 128² cloth in 57.7 µs against 66–68
+            // in the pool, 512² in 1.24 ms against 1.85, the 10,242-vertex ball with gas in 136 µs against 148).
+            // The contact pass's searches then run on the team's pieces or on this thread (`par::rayon_free`).
+            // Whether it pays is measured as the steps run (`crate::team::Pick`), against one thread for a smaller
+            // model and against the pool for a large one.
+            let lease = if !big || crate::team::covers_pool() { crate::team::lease() } else { None };
+            if let Some(lease) = lease {
                 let mut left = steps;
                 while left > 0 {
                     let (team, most) = self.team_pick.choose();
                     let n = most.min(left).max(1);
                     let t0 = Instant::now();
+                    let mut run = |this: &mut Self| (0..n).try_for_each(|_| this.step_inner(model, state, dt));
                     let r = if team {
-                        (0..n).try_for_each(|_| self.step_inner(model, state, dt))
+                        run(self)
+                    } else if big {
+                        lease.without(|| rayon::scope(|_| run(self)))
                     } else {
-                        lease.without(|| (0..n).try_for_each(|_| self.step_inner(model, state, dt)))
+                        lease.without(|| run(self))
                     };
                     self.team_pick.record(team, n, t0.elapsed().as_secs_f64());
                     r?;
                     left -= n;
                 }
                 return Ok(());
+            }
+            if big {
+                return rayon::scope(|_| (0..steps).try_for_each(|_| self.step_inner(model, state, dt)));
             }
         }
         (0..steps).try_for_each(|_| self.step_inner(model, state, dt))
