@@ -92,6 +92,16 @@ impl<R: Real> World<R> {
         self.solver.as_any_mut().downcast_mut::<CpuSolver<R>>()
     }
 
+    /// Lets the solver's helper threads sleep now rather than wait busily for the next step ([`Solver::rest`]):
+    /// call it before other work that wants the cores between advances (drawing a frame). Not between back-to-back
+    /// advances: waking a sleeping helper cost more than its spinning (on the development VM, `fissure run
+    /// scenes/ball_drop.toml` without drawing went 9.4–9.6× → 7.8–8.0× real time when every advance ended with
+    /// it, 2026-11-25), while in the viewer, whose drawing shares the cores, the simulation per frame went
+    /// 4.5–4.9 → 4.4 ms and the drawing 8.5–8.7 → 7.9–8.0 ms.
+    pub fn rest(&mut self) {
+        self.solver.rest();
+    }
+
     /// One step of `dt` \[s\], then the fracture pass when [`World::fracture_every`] steps have passed since the
     /// last one. Returns what happened (the events are also appended to [`World::events`]).
     pub fn step(&mut self, dt: f64) -> Result<Advance, StepError> {
@@ -144,8 +154,6 @@ impl<R: Real> World<R> {
             }
             self.batch(h, n, &mut out).await?;
         }
-        // A duration's steps are done: helper threads need not wait busily for the next (see `Solver::rest`).
-        self.solver.rest();
         self.solver.sync_state_async(&mut self.state).await?;
         Ok(out)
     }

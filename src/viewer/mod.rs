@@ -411,6 +411,8 @@ impl App {
         }
         self.totals.simulated += span;
         self.sim_ms = t0.elapsed().as_secs_f64() * 1e3;
+        // Drawing follows, on the same cores: the solver's helpers sleep rather than spin through it.
+        self.world.rest();
         self.totals.sim_ms += self.sim_ms;
         self.totals.sim_frames += 1;
         let t = self.world.timers();

@@ -307,6 +307,8 @@ pub fn run(cfg: &RunConfig) -> Result<RunSummary, Box<dyn std::error::Error>> {
         }
         // Nothing to write (--no-png --no-gif): no drawing either, the run is the simulation alone.
         if cfg.png || cfg.gif {
+            // Drawing shares the cores (llvmpipe): the solver's helpers sleep rather than spin through it.
+            world.rest();
             let text = overlay(&scene, &world, backend_name);
             match world.gpu_solver() {
                 Some(gpu) => out_frames.capture_buffer(gpu.position_buffer(), &text)?,

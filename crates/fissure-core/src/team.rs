@@ -180,10 +180,11 @@ pub(crate) fn lease() -> Option<Lease> {
     Some(Lease(team))
 }
 
-/// Lets the helpers park now rather than spin for [`SPIN`]: the caller is done stepping for a while (the end of
-/// `World::advance`, before a frame is drawn). The next pass wakes them. In the viewer on the fracture scene the
+/// Lets the helpers park now rather than spin for [`SPIN`]: the caller is done stepping for a while
+/// (`World::rest`, before a frame is drawn). The next pass wakes them. In the viewer on the fracture scene the
 /// helper spun through the first 2 ms of each frame's drawing, and llvmpipe draws on the same two cores: drawing
-/// took 11.6 ms a frame against 7.9 with one thread. Harmless at any time (at worst a helper parks early).
+/// took 11.6 ms a frame against 7.9 with one thread. Correct at any time (at worst a helper parks early), but
+/// waking a parked helper costs more than its spinning between back-to-back passes or steps.
 pub(crate) fn rest() {
     if let Some(Some(team)) = TEAM.get() {
         team.rest();
