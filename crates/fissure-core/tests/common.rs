@@ -39,3 +39,25 @@ pub fn bench_cloth_options(pins: Vec<usize>, fracture: Option<fissure_core::Brea
         fracture,
     }
 }
+
+/// `m` with its vertices renumbered at random (old vertex `i` becomes `perm[i]`) and, if `triangles`, its
+/// triangles then reordered at random too: the same surface numbered without locality. Returns it and `perm`.
+pub fn shuffled_mesh(m: &fissure_core::Mesh, seed: u64, triangles: bool) -> (fissure_core::Mesh, Vec<u32>) {
+    let mut rng = Rng(seed);
+    let n = m.vertex_count();
+    let mut perm: Vec<u32> = (0..n as u32).collect();
+    for i in (1..n).rev() {
+        perm.swap(i, (rng.next_u64() % (i as u64 + 1)) as usize);
+    }
+    let mut positions = vec![DVec3::ZERO; n];
+    for (old, &new) in perm.iter().enumerate() {
+        positions[new as usize] = m.positions()[old];
+    }
+    let mut tris: Vec<[u32; 3]> = m.triangles().iter().map(|t| t.map(|v| perm[v as usize])).collect();
+    if triangles {
+        for i in (1..tris.len()).rev() {
+            tris.swap(i, (rng.next_u64() % (i as u64 + 1)) as usize);
+        }
+    }
+    (fissure_core::Mesh::new(positions, tris).expect("a renumbered mesh is valid"), perm)
+}

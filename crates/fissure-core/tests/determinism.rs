@@ -1,6 +1,8 @@
 //! Same input, bit-identical output, whatever the thread count, and with the `parallel` feature off (CI runs
 //! this file with `--no-default-features` too: `inline_and_parallel_passes_give_the_recorded_bits`).
 
+mod common;
+
 use fissure_core::glam::{DVec3, Vec3};
 use fissure_core::*;
 
@@ -142,29 +144,8 @@ fn run_kernel_against_gather(nx: usize, ny: usize, wind: bool) {
 #[test]
 fn a_renumbered_mesh_gives_the_same_physics() {
     let mesh = Mesh::icosphere(0.25, 3).translated(DVec3::new(0.0, 0.27, 0.0));
-    // splitmix64: a fixed permutation of the vertices and a fixed shuffle of the triangles.
-    let mut seed = 42u64;
-    let mut next = || {
-        seed = seed.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = seed;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        z ^ (z >> 31)
-    };
-    let n = mesh.vertex_count();
-    let mut perm: Vec<usize> = (0..n).collect();
-    for i in (1..n).rev() {
-        perm.swap(i, (next() % (i as u64 + 1)) as usize);
-    }
-    let mut positions = vec![DVec3::ZERO; n];
-    for (old, &new) in perm.iter().enumerate() {
-        positions[new] = mesh.positions()[old];
-    }
-    let mut tris: Vec<[u32; 3]> = mesh.triangles().iter().map(|t| t.map(|v| perm[v as usize] as u32)).collect();
-    for i in (1..tris.len()).rev() {
-        tris.swap(i, (next() % (i as u64 + 1)) as usize);
-    }
-    let shuffled = Mesh::new(positions, tris).unwrap();
+    // A fixed permutation of the vertices and a fixed shuffle of the triangles.
+    let (shuffled, perm) = common::shuffled_mesh(&mesh, 42, true);
     let build = |m: &Mesh| -> Model<f64> {
         let mut b = ModelBuilder::new();
         let opts = SoftBodyOptions {
@@ -197,6 +178,7 @@ fn a_renumbered_mesh_gives_the_same_physics() {
     assert!(touched, "the ball never reached the ground");
     let (mut dq, mut dv, mut moved) = ([0.0f64; 2], [0.0f64; 2], 0.0f64);
     for (k, &p) in perm.iter().enumerate() {
+        let p = p as usize;
         for (j, (s, i)) in [(&sb, p), (&sc, back[p] as usize)].into_iter().enumerate() {
             dq[j] = dq[j].max((sa.particle_q[k] - s.particle_q[i]).length());
             dv[j] = dv[j].max((sa.particle_qd[k] - s.particle_qd[i]).length());

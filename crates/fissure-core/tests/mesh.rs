@@ -1,5 +1,7 @@
 //! Mesh construction, validation errors, generators, OBJ welding and export, topology.
 
+mod common;
+
 use fissure_core::glam::DVec3;
 use fissure_core::topology::connected_components;
 use fissure_core::*;
@@ -255,28 +257,6 @@ fn membrane_stiffness_is_resolution_independent() {
     assert!((coarse / fine - 1.0).abs() < 0.05, "edge force {coarse} N (9²) vs {fine} N (33²)");
 }
 
-/// A mesh's vertices in a fixed random order (splitmix64), its triangles remapped.
-fn shuffled(m: &Mesh, seed: u64) -> Mesh {
-    let mut seed = seed;
-    let mut next = || {
-        seed = seed.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = seed;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        z ^ (z >> 31)
-    };
-    let n = m.vertex_count();
-    let mut perm: Vec<u32> = (0..n as u32).collect();
-    for i in (1..n).rev() {
-        perm.swap(i, (next() % (i as u64 + 1)) as usize);
-    }
-    let mut positions = vec![DVec3::ZERO; n];
-    for (old, &new) in perm.iter().enumerate() {
-        positions[new as usize] = m.positions()[old];
-    }
-    Mesh::new(positions, m.triangles().iter().map(|t| t.map(|v| perm[v as usize])).collect()).unwrap()
-}
-
 /// The largest index gap over the mesh's edges.
 fn bandwidth(m: &Mesh) -> u32 {
     m.triangles().iter().flat_map(|t| [t[0].abs_diff(t[1]), t[1].abs_diff(t[2]), t[2].abs_diff(t[0])]).max().unwrap()
@@ -288,7 +268,7 @@ fn bandwidth(m: &Mesh) -> u32 {
 /// vertex count.
 #[test]
 fn renumbering_for_locality_keeps_the_surface_and_brings_neighbours_together() {
-    let ball = shuffled(&Mesh::icosphere(0.25, 4), 42);
+    let ball = common::shuffled_mesh(&Mesh::icosphere(0.25, 4), 42, false).0;
     let cloth = Mesh::grid(20, 30, 0.01);
     let small = Mesh::icosphere(0.1, 2).translated(DVec3::X);
     let (mut p, mut t) = (ball.positions().to_vec(), ball.triangles().to_vec());
