@@ -257,6 +257,16 @@ impl World {
         self.with_world(py, |w| Ok(each!(w, w => w.advance(duration, dt)?.events.len())))
     }
 
+    /// Lets the solver's helper threads sleep now rather than wait busily for the next step: call it before
+    /// other CPU work between advances (drawing a frame). Not between back-to-back advances, where waking them
+    /// costs more than their waiting. Changes no result.
+    fn rest(&mut self, py: Python<'_>) -> PyResult<()> {
+        self.with_world(py, |w| {
+            each!(w, w => w.rest());
+            Ok(())
+        })
+    }
+
     /// Breaks spring `index` now (a cut), whatever its strain; returns the events (empty if it could not break).
     fn break_spring<'py>(&mut self, py: Python<'py>, index: usize) -> PyResult<Vec<Bound<'py, PyDict>>> {
         self.cut(py, index, false)
