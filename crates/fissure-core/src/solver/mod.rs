@@ -557,6 +557,8 @@ impl<R: Real> Solver<R> for CpuSolver<R> {
                     let r = if team {
                         run(self)
                     } else if big {
+                        // The pool's workers need both cores: the helpers park rather than spin beside them.
+                        crate::team::rest();
                         lease.without(|| rayon::scope(|_| run(self)))
                     } else {
                         lease.without(|| run(self))
