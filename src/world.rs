@@ -95,8 +95,8 @@ impl<R: Real> World<R> {
     /// Lets the solver's helper threads sleep now rather than wait busily for the next step ([`Solver::rest`]):
     /// call it before other work that wants the cores between advances (drawing a frame). Not between back-to-back
     /// advances: waking a sleeping helper cost more than its spinning (on the development VM, `fissure run
-    /// scenes/ball_drop.toml` without drawing went 9.4–9.6× → 7.8–8.0× real time when every advance ended with
-    /// it, 2026-11-25), while in the viewer, whose drawing shares the cores, the simulation per frame went
+    /// scenes/ball_drop.toml` without drawing went 9.4–10.1× → 7.8–8.4× real time when every advance ended
+    /// with it, 2026-11-25), while in the viewer, whose drawing shares the cores, the simulation per frame went
     /// 4.5–4.9 → 4.4 ms and the drawing 8.5–8.7 → 7.9–8.0 ms.
     pub fn rest(&mut self) {
         self.solver.rest();

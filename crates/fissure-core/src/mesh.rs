@@ -183,8 +183,8 @@ impl Mesh {
 
     /// The same surface with its vertices renumbered for locality and its triangles in their order, and where
     /// each old vertex and triangle went ([`Renumbering`]). A model keeps the particle numbering of the meshes it is built from (it is the
-    /// user's: pins, handles and the positions read back use it), and `finalize` orders the springs and
-    /// triangles to follow it; a mesh whose numbering has no locality (vertices in random order, as some
+    /// user's: pins, handles and the positions read back use it) and their triangles' order, and a body's
+    /// springs follow its mesh's sorted edges; a mesh whose numbering has no locality (vertices in random order, as some
     /// exporters and tetrahedral meshers leave them) makes each particle's springs and triangles lie far apart
     /// in memory, and on two threads half of the gather's reads fall on what the other core wrote. Renumbering
     /// such a mesh first restores the fast path: on the 2,562-vertex pressurised ball with its vertices shuffled,
@@ -196,50 +196,30 @@ impl Mesh {
     /// triangle order alone cost the 2,562-vertex ball ~7 %.
     pub fn renumbered_for_locality(&self) -> (Mesh, Renumbering) {
         let n = self.positions.len();
-        // Vertex adjacency (each edge both ways), sorted and deduplicated per vertex.
+        let topo = self.topology();
         let mut adj: Vec<Vec<u32>> = vec![Vec::new(); n];
-        for t in &self.triangles {
-            for (a, b) in [(t[0], t[1]), (t[1], t[2]), (t[2], t[0])] {
-                adj[a as usize].push(b);
-                adj[b as usize].push(a);
-            }
-        }
-        for a in &mut adj {
-            a.sort_unstable();
-            a.dedup();
+        for &[a, b] in &topo.edges {
+            adj[a as usize].push(b);
+            adj[b as usize].push(a);
         }
         let degree = |v: u32| adj[v as usize].len();
+        // Each part (numbered in order of its least vertex) starts from its vertex of least degree, ties to the
+        // least index.
+        let (parts, label) = crate::topology::connected_components(n, topo.edges.iter().copied());
+        let mut start = vec![u32::MAX; parts];
+        for v in 0..n as u32 {
+            let s = &mut start[label[v as usize] as usize];
+            if *s == u32::MAX || degree(v) < degree(*s) {
+                *s = v;
+            }
+        }
         let mut seen = vec![false; n];
         let mut order: Vec<u32> = Vec::with_capacity(n);
-        let mut part_start = 0;
-        for v0 in 0..n as u32 {
-            if seen[v0 as usize] {
-                continue;
-            }
-            // The part of `v0` (its least vertex: parts are met in order of it), by a depth-first sweep; its
-            // vertex of least degree (ties: the least index) starts the breadth-first order.
-            let part: Vec<u32> = {
-                let (mut stack, mut members) = (vec![v0], Vec::new());
-                seen[v0 as usize] = true;
-                while let Some(v) = stack.pop() {
-                    members.push(v);
-                    for &w in &adj[v as usize] {
-                        if !seen[w as usize] {
-                            seen[w as usize] = true;
-                            stack.push(w);
-                        }
-                    }
-                }
-                members
-            };
-            let start = *part.iter().min_by_key(|&&v| (degree(v), v)).expect("a part has a vertex");
-            // Breadth-first over the part, reusing `seen` as "not yet ordered" for its members.
-            for &v in &part {
-                seen[v as usize] = false;
-            }
-            seen[start as usize] = true;
-            order.push(start);
-            let mut head = part_start;
+        for s in start {
+            let from = order.len();
+            seen[s as usize] = true;
+            order.push(s);
+            let mut head = from;
             while head < order.len() {
                 let v = order[head];
                 head += 1;
@@ -250,8 +230,7 @@ impl Mesh {
                     order.push(w);
                 }
             }
-            order[part_start..].reverse();
-            part_start = order.len();
+            order[from..].reverse();
         }
         let mut new_of_old = vec![0u32; n];
         for (new, &old) in order.iter().enumerate() {

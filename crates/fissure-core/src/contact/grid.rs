@@ -79,10 +79,6 @@ impl HashGrid {
         })
     }
 
-    fn bucket(&self, c: [i64; 3]) -> usize {
-        bucket_of(pack(c), self.mask)
-    }
-
     /// Calls `f` on every point whose cell meets the box `[lo, hi]`, each once, in cell order (all points when
     /// the box spans more cells than the grid has buckets).
     pub fn query(&self, lo: DVec3, hi: DVec3, mut f: impl FnMut(u32)) {
@@ -96,8 +92,8 @@ impl HashGrid {
         for x in a[0]..=b[0] {
             for y in a[1]..=b[1] {
                 for z in a[2]..=b[2] {
-                    let bk = self.bucket([x, y, z]);
                     let key = pack([x, y, z]);
+                    let bk = bucket_of(key, self.mask);
                     let range = self.start[bk] as usize..self.start[bk + 1] as usize;
                     for (&i, &c) in self.items[range.clone()].iter().zip(&self.cells[range]) {
                         if c == key {

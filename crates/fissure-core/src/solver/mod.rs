@@ -220,7 +220,7 @@ pub struct CgStats {
 ///
 /// A model stepped from outside rayon's pool while the pool has more than one thread runs its passes on a team
 /// of spinning helper threads instead (`crate::team`: one per pool thread less one, at most 3, parked after 2 ms
-/// without work, or at once after `World::advance`): a smaller model always, a large one when the team has as many
+/// without work, or at once on `World::rest`): a smaller model always, a large one when the team has as many
 /// threads as the pool. Passes of a few microseconds are handed over in about 50 ns, where a rayon worker's
 /// wake-up cost tens of microseconds on the development VM. The 2,562-vertex ball of `benches/ball.rs` went
 /// 57.9–59.0 → 33.4–34.6 µs a step on two threads (2026-11-25, `benches/RESULTS.md`), where the VM's two vCPUs

@@ -138,55 +138,45 @@ impl<R: Real> ContactScratch<R> {
         // in index order, the same whichever thread runs it). Edge midpoints go in cells of `radius + l_max`: an
         // edge's query box (its box grown by the reach below) spans at most 3 cells a side.
         let (eboxes, centroids) = (&self.eboxes, &self.centroids);
-        let vertices = |g: &mut HashGrid, of_big: bool| {
-            g.build(cell, parts.len(), |k| {
-                let (v, p) = (parts[k], x(parts[k]));
-                (in_big(m.particle_body[v as usize]) == of_big && in_grid(v, p)).then_some(p)
-            })
-        };
-        let midpoints = |g: &mut HashGrid, of_big: bool| {
-            g.build(radius + l_max, edges.len(), |k| {
-                let [lo, hi] = eboxes[k];
-                let b = m.particle_body[edges[k][0] as usize];
-                (in_big(b) == of_big && active[b as usize] && worth(b, lo - pad, hi + pad)).then(|| 0.5 * (lo + hi))
-            })
-        };
-        let tri_centroids = |g: &mut HashGrid, of_big: bool| {
-            if hot.is_some() {
-                g.build(cell, centroids.len(), |k| {
-                    centroids[k].filter(|_| in_big(m.tri_body[el.tris[k] as usize]) == of_big)
+        // Each kind's two grids (index 1: the big body's), each element in the one of its body.
+        let vertices = |gs: &mut [HashGrid; 2]| {
+            for (g, of_big) in gs.iter_mut().zip([false, true]) {
+                g.build(cell, parts.len(), |k| {
+                    let (v, p) = (parts[k], x(parts[k]));
+                    (in_big(m.particle_body[v as usize]) == of_big && in_grid(v, p)).then_some(p)
                 });
             }
         };
-        let [grid, grid_big] = &mut self.grid;
-        let [egrid, egrid_big] = &mut self.egrid;
-        let [tgrid, tgrid_big] = &mut self.tgrid;
+        let midpoints = |gs: &mut [HashGrid; 2]| {
+            for (g, of_big) in gs.iter_mut().zip([false, true]) {
+                g.build(radius + l_max, edges.len(), |k| {
+                    let [lo, hi] = eboxes[k];
+                    let b = m.particle_body[edges[k][0] as usize];
+                    (in_big(b) == of_big && active[b as usize] && worth(b, lo - pad, hi + pad)).then(|| 0.5 * (lo + hi))
+                });
+            }
+        };
+        let tri_centroids = |gs: &mut [HashGrid; 2]| {
+            if hot.is_some() {
+                for (g, of_big) in gs.iter_mut().zip([false, true]) {
+                    g.build(cell, centroids.len(), |k| {
+                        centroids[k].filter(|_| in_big(m.tri_body[el.tris[k] as usize]) == of_big)
+                    });
+                }
+            }
+        };
+        let (grid, egrid, tgrid) = (&mut self.grid, &mut self.egrid, &mut self.tgrid);
         #[cfg(feature = "parallel")]
         let parallel = parts.len() + edges.len() >= PAR_BUILD && crate::par::rayon_free();
         #[cfg(not(feature = "parallel"))]
         let parallel = false;
-        let vertices = |a: &mut HashGrid, b: &mut HashGrid| {
-            vertices(a, false);
-            vertices(b, true);
-        };
-        let midpoints = |a: &mut HashGrid, b: &mut HashGrid| {
-            midpoints(a, false);
-            midpoints(b, true);
-        };
-        let tri_centroids = |a: &mut HashGrid, b: &mut HashGrid| {
-            tri_centroids(a, false);
-            tri_centroids(b, true);
-        };
         if parallel {
             #[cfg(feature = "parallel")]
-            rayon::join(
-                || vertices(grid, grid_big),
-                || rayon::join(|| midpoints(egrid, egrid_big), || tri_centroids(tgrid, tgrid_big)),
-            );
+            rayon::join(|| vertices(grid), || rayon::join(|| midpoints(egrid), || tri_centroids(tgrid)));
         } else {
-            vertices(grid, grid_big);
-            midpoints(egrid, egrid_big);
-            tri_centroids(tgrid, tgrid_big);
+            vertices(grid);
+            midpoints(egrid);
+            tri_centroids(tgrid);
         }
         // A refresh searches again from the triangles with a hot corner and the edges with a hot end, and from
         // each hot vertex the triangles (without a hot corner) whose centroids are within `radius + c_reach` of it
