@@ -159,21 +159,16 @@ fn wind_sample(x: vec3<f32>, t: f32) -> vec3<f32> {
 
 // Drag and lift on a triangle with cross vector `c` in relative air velocity `v`: twin of `aero_components`.
 fn aero_force(c: vec3<f32>, v: vec3<f32>, cd: f32, cl: f32, rho_half: f32) -> vec3<f32> {
-    let c_len = length(c);
-    let speed = length(v);
-    if (c_len <= 0.0 || speed <= 0.0) {
+    // The drag ½ρ C_D A |n·v| v and lift ½ρ C_L A (n·v)(n|v| - (n·v̂) v) through s = c·v = 2A (n̂·v) (see
+    // `aero_components` in `forces/wind.rs`).
+    let vv = dot(v, v);
+    let s = dot(c, v);
+    let root = sqrt(dot(c, c) * vv);
+    if (root <= 0.0) {
         return vec3<f32>(0.0);
     }
-    let area = c_len * 0.5;
-    var n = c / c_len;
-    var vn = dot(n, v);
-    if (vn < 0.0) {
-        n = -n;
-        vn = -vn;
-    }
-    let drag = v * (rho_half * cd * area * vn);
-    let lift = (n * speed - v * (vn / speed)) * (rho_half * cl * area * vn);
-    return drag + lift;
+    let quarter = rho_half * 0.5;
+    return v * (quarter * cd * abs(s)) + (c * vv - v * s) * (quarter * cl * s / root);
 }
 
 // Pass 3 (one invocation per triangle): the force on each of its corners.

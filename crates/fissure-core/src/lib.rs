@@ -34,7 +34,8 @@ pub use glam;
 pub use mesh::{Mesh, Renumbering};
 pub use model::{
     BodyHandle, BodyKind, BodyRow, Breakable, ClothOptions, Damping, DampingModel, Energy, Gas, Handle, Mass, Model,
-    ModelBuilder, Opening, ParticleRow, SoftBodyOptions, SpringKind, SpringRow, SpringRun, State, Stiffness, TriRow,
+    ModelBuilder, Opening, ParticleRow, SoftBodyOptions, SpringKind, SpringRow, SpringRun, State, Stiffness, TriGrid,
+    TriRow,
 };
 pub use parry3d;
 pub use real::{Real, Vector3};

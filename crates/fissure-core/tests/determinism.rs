@@ -67,7 +67,8 @@ fn one_and_two_threads_give_identical_bits() {
 
 /// The passes run inline (feature `parallel` off, as on wasm32) and on threads give the same bits: both builds
 /// must reproduce this hash of 60 symplectic Euler steps of the scene. (Changes with the physics, like the
-/// facade's state hashes: update it with the reason.)
+/// facade's state hashes: update it with the reason. Last: 2026-11-25, the drag and lift written through `c·v`
+/// in `forces::wind::aero_components`, by rounding.)
 #[test]
 fn inline_and_parallel_passes_give_the_recorded_bits() {
     let bits = run(2, Integrator::SymplecticEuler);
@@ -78,7 +79,7 @@ fn inline_and_parallel_passes_give_the_recorded_bits() {
     assert_eq!(hash, RECORDED, "parallel feature {}", cfg!(feature = "parallel"));
 }
 
-const RECORDED: u64 = 0xb5c8_171f_40de_2861;
+const RECORDED: u64 = 0xb5a3_370e_8792_d339;
 
 #[test]
 fn spring_run_kernel_matches_the_gather_kernel() {
@@ -134,6 +135,85 @@ fn run_kernel_against_gather(nx: usize, ny: usize, wind: bool) {
     }
     let fell = sa.particle_q.iter().map(|q| q.y).fold(f32::INFINITY, f32::min);
     assert!(fell < 0.999, "the sheet did not fall under gravity: lowest y {fell} m");
+}
+
+/// Cloth grids in wind take the grid wind pass (`forces::wind_grid`: whole rows of quads, sums per particle);
+/// the same model with its grids forgotten (`tri_grids` cleared) takes the general per-triangle pass and CSR
+/// gather. Same triangles, another summation order: the forces agree to f64 rounding, including when some of
+/// a grid's triangles no longer match its layout (here rotated corner orders, the same triangles: the grid pass
+/// leaves them to the general kernel, as it does a torn cloth's). The grid is 300 wide (three tiles of a row)
+/// and 23 rows, with gusts and crosswind on perturbed positions and velocities.
+#[test]
+fn grid_wind_matches_the_general_wind_pass() {
+    let mut b = ModelBuilder::new();
+    let opts = ClothOptions { mass: Mass::PerParticle(1e-3), pins: vec![0, 299], ..Default::default() };
+    b.add_cloth_grid(300, 23, 0.01, |p| DVec3::new(p.x, 1.0, p.y), &opts).unwrap();
+    let small = ClothOptions { pins: vec![], ..opts.clone() };
+    b.add_cloth_grid(5, 4, 0.02, |p| DVec3::new(p.x, 1.5, p.y), &small).unwrap();
+    b.wind(WindField { velocity: DVec3::new(2.0, 1.0, 4.0), ..Default::default() }).unwrap();
+    let grid: Model<f64> = b.finalize().unwrap();
+    let mut s = grid.state();
+    for (k, (q, v)) in s.particle_q.iter_mut().zip(s.particle_qd.iter_mut()).enumerate() {
+        let k = k as f64;
+        *q += DVec3::new((k * 0.37).sin(), (k * 0.11).cos(), (k * 0.73).sin()) * 3e-3;
+        *v = DVec3::new((k * 0.29).cos(), (k * 0.53).sin(), (k * 0.17).cos()) * 0.5;
+    }
+    let compare = |grid: &Model<f64>, what: &str| {
+        let mut general = grid.clone();
+        general.tri_grids.clear();
+        let (mut fa, mut fb) = (vec![DVec3::ZERO; grid.particle_count()], vec![DVec3::ZERO; grid.particle_count()]);
+        CpuSolver::<f64>::default().compute_forces(grid, &s, &mut fa).unwrap();
+        CpuSolver::<f64>::default().compute_forces(&general, &s, &mut fb).unwrap();
+        // Without gravity's share, which both add alike: the wind forces alone.
+        let wind: Vec<DVec3> = fb.iter().zip(&grid.particle_mass).map(|(f, &m)| *f - grid.gravity * m).collect();
+        let scale = wind.iter().map(|f| f.length()).fold(0.0, f64::max);
+        assert!(scale > 1e-6, "{what}: the wind pushes ({scale} N)");
+        let worst = fa.iter().zip(&fb).map(|(a, b)| (*a - *b).length()).fold(0.0, f64::max);
+        assert!(worst <= 1e-12 * scale, "{what}: forces differ by {worst} N (max wind force {scale} N)");
+        // Not the same path twice: the two summation orders differ somewhere in the last bits.
+        assert!(worst > 0.0, "{what}: bit-identical forces, so the grid pass did not run");
+        let (mut sa, mut sb) = (s.clone(), s.clone());
+        let (mut va, mut vb) = (CpuSolver::<f64>::default(), CpuSolver::<f64>::default());
+        for _ in 0..200 {
+            va.step(grid, &mut sa, 1e-4).unwrap();
+            vb.step(&general, &mut sb, 1e-4).unwrap();
+        }
+        let drift = sa.particle_q.iter().zip(&sb.particle_q).map(|(a, b)| (*a - *b).length()).fold(0.0, f64::max);
+        assert!(drift < 1e-12, "{what}: trajectories drift apart by {drift} m");
+    };
+    compare(&grid, "intact grids");
+    let mut changed = grid.clone();
+    for t in [0usize, 1, 517, 4000, 12_000, 13_155, 13_170] {
+        let [a, b, c] = changed.tri_indices[t];
+        changed.tri_indices[t] = [b, c, a];
+    }
+    compare(&changed, "some triangles off the layout");
+}
+
+/// The grid wind pass gives the same bits on 1 and 2 threads (its rows are cut into pieces by the thread count;
+/// each particle's sum does not depend on the cut): a 160 × 120 grid, above the parallel threshold, stepped by
+/// symplectic Euler (the run kernel) and RK4 (the general gather).
+#[test]
+fn grid_wind_gives_the_same_bits_on_any_thread_count() {
+    let run = |threads: usize, integrator: Integrator| {
+        let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
+        pool.install(|| {
+            let mut b = ModelBuilder::new();
+            let opts = ClothOptions { mass: Mass::PerParticle(1e-3), pins: vec![0, 159], ..Default::default() };
+            b.add_cloth_grid(160, 120, 0.01, |p| DVec3::new(p.x, 1.0, p.y), &opts).unwrap();
+            b.wind(WindField::default()).unwrap();
+            let model: Model<f32> = b.finalize().unwrap();
+            let mut s = model.state();
+            let mut solver = CpuSolver::<f32>::with_integrator(integrator);
+            for _ in 0..40 {
+                solver.step(&model, &mut s, 1e-4).unwrap();
+            }
+            fingerprint(&s)
+        })
+    };
+    for integrator in [Integrator::SymplecticEuler, Integrator::Rk4] {
+        assert_eq!(run(1, integrator), run(2, integrator), "{}", integrator.name());
+    }
 }
 
 /// The physics does not depend on how a mesh is numbered: the pressurised ball built from its icosphere with the

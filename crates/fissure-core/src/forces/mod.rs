@@ -4,11 +4,13 @@
 //! one summation order: bit-identical results on any number of threads.
 //!
 //! The surface pass fuses the two triangle terms: one sweep takes each triangle's cross vector, the bodies'
-//! volumes, and then each corner's share of the pressure and wind forces.
+//! volumes, and then each corner's share of the pressure and wind forces. Cloth grids in wind without gas take
+//! the grid wind pass instead (`forces/wind_grid.rs`): whole rows of quads, summed per particle without a gather.
 
 pub mod pressure;
 pub mod spring;
 pub mod wind;
+pub(crate) mod wind_grid;
 
 use crate::model::Model;
 use crate::par;
@@ -33,6 +35,14 @@ pub(crate) struct ForceScratch<R: Real> {
     pub tri_f: Vec<R::V>,
     /// Whether `tri_f` holds this evaluation's corner forces (wind), else see [`pressure_share`].
     pub tri_f_written: bool,
+    /// The grid wind pass's plan (a model in wind whose triangles are mostly cloth grids: `wind_grid`).
+    pub grid_plan: Option<wind_grid::GridPlan>,
+    /// Each particle's sum of its triangles' wind forces \[N\] (the grid wind pass)…
+    pub tri_sums: Vec<R::V>,
+    /// …holding this evaluation's forces (else `tri_f_written` or the pressure share tells).
+    pub tri_summed: bool,
+    /// The grid plan's loose triangles' forces \[N\].
+    pub loose_f: Vec<R::V>,
     /// `P / 6` of each body \[Pa\]: a corner's pressure share is `cross · P / 6`.
     pub body_p6: Vec<R>,
     /// Per-chunk, per-body partial sums of `6 V`.
@@ -85,7 +95,14 @@ impl<R: Real> ForceScratch<R> {
         let surface = m.has_pressure() || m.has_wind();
         let nt = if surface { m.tri_count() } else { 0 };
         self.tri_cross.resize(nt, R::V::ZERO);
-        self.tri_f.resize(if m.has_wind() { nt } else { 0 }, R::V::ZERO);
+        self.grid_plan = wind_grid::GridPlan::of_model(m);
+        let planned = self.grid_plan.as_ref();
+        self.tri_f.resize(if m.has_wind() && planned.is_none() { nt } else { 0 }, R::V::ZERO);
+        // Sums of particles without triangles are never written: zero from here on.
+        self.tri_sums.clear();
+        self.tri_sums.resize(if planned.is_some() { m.particle_count() } else { 0 }, R::V::ZERO);
+        self.loose_f.resize(planned.map_or(0, |p| p.loose.len()), R::V::ZERO);
+        self.tri_summed = false;
         self.body_p6.resize(m.body_count(), R::ZERO);
         self.body_volume.resize(m.body_count(), R::ZERO);
         self.body_pressure.resize(m.body_count(), R::ZERO);
@@ -185,15 +202,21 @@ impl<R: Real> ForceScratch<R> {
             self.body_p6[b] = self.body_pressure[b] * sixth;
         }
         let wind = if m.has_wind() { m.wind.as_ref() } else { None };
-        self.tri_f_written = wind.is_some();
+        self.tri_f_written = wind.is_some() && self.grid_plan.is_none();
+        self.tri_summed = wind.is_some() && self.grid_plan.is_some();
         let Some(wind) = wind else { return };
         let rho_half = R::from_f64(0.5 * wind.air_density);
         let wind = wind.prepare::<R>(time);
         let body_pressure = &self.body_pressure;
+        if let Some(plan) = &self.grid_plan {
+            plan.run(m, q, qd, &wind, rho_half, body_pressure, &mut self.tri_sums, &mut self.loose_f);
+            return;
+        }
         // Each triangle's force is its own: on the team in finer pieces (`par::piece`), the same bits.
         let (pool, size) = (par::is_pooled(self.tri_f.len()), par::piece(par::CHUNK));
         par::chunks2_pooled(pool, size, &mut self.tri_f, &mut self.tri_cross, |start, out, cross| {
-            wind::wind_chunk(m, q, qd, cross, fused_wind, body_pressure, &wind, rho_half, start, out)
+            let tris = wind::Tris::Range { start, cross, form: fused_wind };
+            wind::wind_chunk(m, q, qd, tris, body_pressure, &wind, rho_half, out)
         });
     }
 }
@@ -238,11 +261,13 @@ pub(crate) fn cross_chunk<R: Real>(
     }
 }
 
-/// Particle `i`'s triangle forces added to `f` \[N\]: with wind each triangle's corner force (`tri_f`) in row
-/// order; else its [`pressure_share`].
+/// Particle `i`'s triangle forces added to `f` \[N\]: with wind its sum from the grid wind pass (`tri_sums`) or
+/// each triangle's corner force (`tri_f`) in row order; else its [`pressure_share`].
 #[inline(always)]
 pub(crate) fn add_corners<R: Real>(f: R::V, m: &Model<R>, s: &ForceScratch<R>, i: usize) -> R::V {
-    if s.tri_f_written {
+    if s.tri_summed {
+        f + s.tri_sums[i]
+    } else if s.tri_f_written {
         m.particle_tris.row(i).iter().fold(f, |f, &t| f + s.tri_f[t as usize])
     } else {
         f + pressure_share(m, s, i)

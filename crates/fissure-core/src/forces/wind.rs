@@ -212,68 +212,77 @@ impl Aero {
 }
 
 /// Drag and lift on a triangle with cross vector `c = 2 A n̂`, in relative air velocity `v` (see the module docs),
-/// per component and branch-free (selects only), so the span loop of the wind pass vectorises: a degenerate
-/// triangle (`c = 0`) or still air (`v = 0`) gives zero through the zero reciprocals.
+/// per component and branch-free (selects only), so the span loop of the wind pass vectorises.
+///
+/// The module's formulas with `n·v` and the area written through `s = c·v = 2 A (n̂·v)`: the drag
+/// `½ ρ C_D A |n·v| v` is `¼ ρ C_D |s| v`, and the lift `½ ρ C_L A (n·v) (n |v| - (n·v̂) v)` (with `n` facing the
+/// flow) is `¼ ρ C_L s (c |v|² - s v) / (|c| |v|)`: one square root and one division instead of two of each and
+/// no sign flip (the wind pass's lanes, 2026-11-25). A degenerate triangle (`c = 0`) or still air (`v = 0`) gives
+/// `s = 0` and a zero reciprocal: no force.
 ///
 /// GPU twin: `aero_force` in `shaders/surface.wgsl` (used by the kernel `surface_force`).
 #[inline(always)]
 pub(crate) fn aero_components<R: Real>(c: [R; 3], v: [R; 3], cd: R, cl: R, rho_half: R) -> [R; 3] {
-    let c_len = (c[0] * c[0] + c[1] * c[1] + c[2] * c[2]).sqrt();
-    let speed = (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
-    let inv_c = if c_len > R::ZERO { R::ONE / c_len } else { R::ZERO };
-    let inv_s = if speed > R::ZERO { R::ONE / speed } else { R::ZERO };
-    let n = [c[0] * inv_c, c[1] * inv_c, c[2] * inv_c];
-    let vn = n[0] * v[0] + n[1] * v[1] + n[2] * v[2];
-    // The normal facing the flow: n·v ≥ 0.
-    let sign = if vn < R::ZERO { -R::ONE } else { R::ONE };
-    let (n, vn) = ([n[0] * sign, n[1] * sign, n[2] * sign], vn * sign);
-    let k = rho_half * (c_len * R::from_f64(0.5)) * vn;
-    let (kd, kl, vs) = (k * cd, k * cl, vn * inv_s);
+    let cc = c[0] * c[0] + c[1] * c[1] + c[2] * c[2];
+    let vv = v[0] * v[0] + v[1] * v[1] + v[2] * v[2];
+    let s = c[0] * v[0] + c[1] * v[1] + c[2] * v[2];
+    let root = (cc * vv).sqrt();
+    let inv = if root > R::ZERO { R::ONE / root } else { R::ZERO };
+    let quarter = rho_half * R::from_f64(0.5);
+    let (kd, kl) = (quarter * cd * s.abs(), quarter * cl * s * inv);
     [
-        v[0] * kd + (n[0] * speed - v[0] * vs) * kl,
-        v[1] * kd + (n[1] * speed - v[1] * vs) * kl,
-        v[2] * kd + (n[2] * speed - v[2] * vs) * kl,
+        v[0] * kd + (c[0] * vv - v[0] * s) * kl,
+        v[1] * kd + (c[1] * vv - v[1] * s) * kl,
+        v[2] * kd + (c[2] * vv - v[2] * s) * kl,
     ]
 }
 
 /// Triangles per span of the wind pass.
-const SPAN: usize = 64;
+pub(crate) const SPAN: usize = 64;
 
-/// Corner forces (pressure share + a third of drag and lift) of triangles `start .. start + out.len()`, a span
-/// at a time: per-lane inputs gathered into per-component arrays, the wind sample and [`aero_components`] run
-/// as plain loops over them (packed square roots, divisions and the polynomial sines), results scattered back.
-/// `cross`: the triangles' cross vectors (this chunk's), read, or with `form_cross` formed here from the
-/// positions the pass loads anyway and stored (a model without gas: no pass of its own for them; 128² cloth in
-/// wind, harness `terms`, 2026-11-24: the surface stage 149–150 → 140–142 µs a step).
-/// Compiled for AVX-512 or AVX2 when the CPU has them (same bits: see `crate::isa`; AVX-512 measured on the 128²
-/// cloth in wind, harness `terms`, 2026-11-24: the surface stage 141–144 → 130–131 µs).
+/// The triangles a call of the wind kernel computes, and what it does with their cross vectors.
+pub(crate) enum Tris<'a, R: Real> {
+    /// Triangles `start .. start + cross.len()` (the surface pass): their crosses read from `cross`, or with
+    /// `form` formed here from the positions the kernel loads anyway and stored (a model without gas: no pass of
+    /// its own for them; 128² cloth in wind, harness `terms`, 2026-11-24: the surface stage 149–150 → 140–142 µs a
+    /// step).
+    Range { start: usize, cross: &'a mut [R::V], form: bool },
+    /// The listed triangles (the loose ones of a grid model, `forces::wind_grid`): their crosses formed here and
+    /// not kept.
+    List(&'a [u32]),
+}
+
+/// Corner forces (pressure share + a third of drag and lift) of the triangles `tris` names into `out` (one per
+/// triangle), a span at a time: per-lane inputs gathered into per-component arrays, the wind sample and
+/// [`aero_components`] run as plain loops over them (packed square roots, divisions and the polynomial sines),
+/// results scattered back. Compiled for AVX-512 or AVX2 when the CPU has them (same bits: see `crate::isa`;
+/// AVX-512 measured on the 128² cloth in wind, harness `terms`, 2026-11-24: the surface stage 141–144 → 130–131
+/// µs).
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn wind_chunk<R: Real>(
     m: &Model<R>,
     q: &[R::V],
     qd: &[R::V],
-    cross: &mut [R::V],
-    form_cross: bool,
+    tris: Tris<'_, R>,
     pressure: &[R],
     w: &PreparedWind<R>,
     rho_half: R,
-    start: usize,
     out: &mut [R::V],
 ) {
     #[cfg(target_arch = "x86_64")]
     {
         if crate::isa::avx512() {
             // SAFETY: the CPU supports AVX-512 F and VL, checked just above.
-            unsafe { wind_chunk_avx512(m, q, qd, cross, form_cross, pressure, w, rho_half, start, out) };
+            unsafe { wind_chunk_avx512(m, q, qd, tris, pressure, w, rho_half, out) };
             return;
         }
         if crate::isa::avx2() {
             // SAFETY: the CPU supports AVX2, checked just above.
-            unsafe { wind_chunk_avx2(m, q, qd, cross, form_cross, pressure, w, rho_half, start, out) };
+            unsafe { wind_chunk_avx2(m, q, qd, tris, pressure, w, rho_half, out) };
             return;
         }
     }
-    wind_chunk_impl(m, q, qd, cross, form_cross, pressure, w, rho_half, start, out)
+    wind_chunk_impl(m, q, qd, tris, pressure, w, rho_half, out)
 }
 
 #[cfg(target_arch = "x86_64")]
@@ -283,15 +292,13 @@ fn wind_chunk_avx512<R: Real>(
     m: &Model<R>,
     q: &[R::V],
     qd: &[R::V],
-    cross: &mut [R::V],
-    form_cross: bool,
+    tris: Tris<'_, R>,
     pressure: &[R],
     w: &PreparedWind<R>,
     rho_half: R,
-    start: usize,
     out: &mut [R::V],
 ) {
-    wind_chunk_impl(m, q, qd, cross, form_cross, pressure, w, rho_half, start, out)
+    wind_chunk_impl(m, q, qd, tris, pressure, w, rho_half, out)
 }
 
 #[cfg(target_arch = "x86_64")]
@@ -301,15 +308,13 @@ fn wind_chunk_avx2<R: Real>(
     m: &Model<R>,
     q: &[R::V],
     qd: &[R::V],
-    cross: &mut [R::V],
-    form_cross: bool,
+    tris: Tris<'_, R>,
     pressure: &[R],
     w: &PreparedWind<R>,
     rho_half: R,
-    start: usize,
     out: &mut [R::V],
 ) {
-    wind_chunk_impl(m, q, qd, cross, form_cross, pressure, w, rho_half, start, out)
+    wind_chunk_impl(m, q, qd, tris, pressure, w, rho_half, out)
 }
 
 #[allow(clippy::too_many_arguments)]
@@ -318,36 +323,81 @@ fn wind_chunk_impl<R: Real>(
     m: &Model<R>,
     q: &[R::V],
     qd: &[R::V],
-    cross: &mut [R::V],
-    form_cross: bool,
+    mut tris: Tris<'_, R>,
     pressure: &[R],
     w: &PreparedWind<R>,
     rho_half: R,
-    start: usize,
     out: &mut [R::V],
 ) {
     let third = R::from_f64(1.0 / 3.0);
     let z = [[R::ZERO; SPAN]; 3];
     let (mut c, mut x, mut v, mut f) = (z, z, z, z);
     let (mut cd, mut cl, mut p) = ([R::ZERO; SPAN], [R::ZERO; SPAN], [R::ZERO; SPAN]);
+    let mut corners = [[0u32; 3]; SPAN];
+    let mut bodies = [0u32; SPAN];
     let mut k0 = 0;
     while k0 < out.len() {
         let n = (out.len() - k0).min(SPAN);
-        for k in 0..n {
-            let t = start + k0 + k;
-            let body = m.tri_body[t] as usize;
-            let [a, b, d] = m.tri_indices[t].map(|i| i as usize);
-            let centroid = ((q[a] + q[b] + q[d]) * third).to_array();
-            let vel = ((qd[a] + qd[b] + qd[d]) * third).to_array();
-            if form_cross {
-                // The surface pass's formula: the same bits.
-                cross[k0 + k] = (q[b] - q[a]).cross(q[d] - q[a]);
+        // The span's corners and bodies, copied (a slice of the model's, or gathered through the list).
+        let (idx, body) = match &tris {
+            Tris::Range { start, .. } => {
+                let t0 = start + k0;
+                (&m.tri_indices[t0..t0 + n], &m.tri_body[t0..t0 + n])
             }
-            let cr = cross[k0 + k].to_array();
+            Tris::List(ids) => {
+                for (k, &t) in ids[k0..k0 + n].iter().enumerate() {
+                    (corners[k], bodies[k]) = (m.tri_indices[t as usize], m.tri_body[t as usize]);
+                }
+                (&corners[..n], &bodies[..n])
+            }
+        };
+        // The span's corners checked once (a vectorised maximum), then read without a check each, as in the
+        // per-spring kernel; a span of one body (the usual case) reads its coefficients once. One thread,
+        // 2026-11-25: the surface stage 246 → 170 µs a step on the 128² cloth in wind, 160 → 107 µs on the
+        // 10,242-vertex ball.
+        let top = idx.iter().fold(0u32, |a, &[i, j, l]| a.max(i).max(j).max(l)) as usize;
+        assert!(top < q.len() && top < qd.len(), "triangle corner out of range");
+        let b0 = body[0];
+        if body.iter().all(|&b| b == b0) {
+            let b0 = b0 as usize;
+            cd.fill(m.body_drag[b0]);
+            cl.fill(m.body_lift[b0]);
+            p.fill(pressure[b0]);
+        } else {
+            for k in 0..n {
+                let b = body[k] as usize;
+                (cd[k], cl[k], p[k]) = (m.body_drag[b], m.body_lift[b], pressure[b]);
+            }
+        }
+        for k in 0..n {
+            let [a, b, d] = idx[k].map(|i| i as usize);
+            // SAFETY: a, b, d <= top < q.len(), qd.len() (asserted above).
+            let (qa, qb, qc, va, vb, vc) = unsafe {
+                (
+                    *q.get_unchecked(a),
+                    *q.get_unchecked(b),
+                    *q.get_unchecked(d),
+                    *qd.get_unchecked(a),
+                    *qd.get_unchecked(b),
+                    *qd.get_unchecked(d),
+                )
+            };
+            let centroid = ((qa + qb + qc) * third).to_array();
+            let vel = ((va + vb + vc) * third).to_array();
+            // The surface pass's formula (`forces::cross_chunk`): the same bits.
+            let cr = match &mut tris {
+                Tris::Range { cross, form: false, .. } => cross[k0 + k],
+                Tris::Range { cross, form: true, .. } => {
+                    let cr = (qb - qa).cross(qc - qa);
+                    cross[k0 + k] = cr;
+                    cr
+                }
+                Tris::List(_) => (qb - qa).cross(qc - qa),
+            }
+            .to_array();
             for e in 0..3 {
                 (c[e][k], x[e][k], v[e][k]) = (cr[e], centroid[e], vel[e]);
             }
-            (cd[k], cl[k], p[k]) = (m.body_drag[body], m.body_lift[body], pressure[body]);
         }
         // Three simple loops over the lanes (each one vectorises): the wind, the relative air, the forces.
         let mut air = z;
@@ -374,4 +424,19 @@ fn wind_chunk_impl<R: Real>(
         }
         k0 += n;
     }
+}
+
+/// [`wind_chunk`] over the listed triangles (`out`: one force per listed triangle).
+#[allow(clippy::too_many_arguments)]
+pub(crate) fn wind_list<R: Real>(
+    m: &Model<R>,
+    q: &[R::V],
+    qd: &[R::V],
+    ids: &[u32],
+    pressure: &[R],
+    w: &PreparedWind<R>,
+    rho_half: R,
+    out: &mut [R::V],
+) {
+    wind_chunk(m, q, qd, Tris::List(ids), pressure, w, rho_half, out)
 }

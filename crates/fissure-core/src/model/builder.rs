@@ -14,6 +14,7 @@ pub struct ModelBuilder {
     springs: Vec<([u32; 2], f64, f64, f64, SpringKind, f64)>,
     tris: Vec<[u32; 3]>,
     tri_body: Vec<u32>,
+    tri_grids: Vec<super::TriGrid>,
     bodies: Vec<BodyDesc>,
     gravity: DVec3,
     damping_model: DampingModel,
@@ -74,6 +75,7 @@ impl ModelBuilder {
             particle_body: Vec::new(),
             springs: Vec::new(),
             tris: Vec::new(),
+            tri_grids: Vec::new(),
             tri_body: Vec::new(),
             bodies: Vec::new(),
             gravity: DVec3::new(0.0, -9.81, 0.0),
@@ -415,6 +417,10 @@ impl ModelBuilder {
         }
         self.pinned.extend_from_slice(&pinned);
         self.particle_body.extend(std::iter::repeat_n(body, n));
+        if let Some(g) = grid {
+            let (nx, ny) = (g.nx as u32, g.ny as u32);
+            self.tri_grids.push(super::TriGrid { first: first_triangle as u32, base, nx, ny });
+        }
         self.tris.extend(mesh.triangles().iter().map(|t| t.map(|v| v + base)));
         self.tri_body.extend(std::iter::repeat_n(body, mesh.triangle_count()));
 
@@ -626,6 +632,7 @@ impl ModelBuilder {
             handles: self.handles.iter().map(|(h, _)| h.clone()).collect(),
             openings: Vec::new(),
             breakable: false,
+            tri_grids: self.tri_grids.clone(),
             spring_runs: SpringRun::detect_if_useful(&self.springs.iter().map(|s| s.0).collect::<Vec<_>>()),
             particle_springs,
             particle_tris,

@@ -165,6 +165,10 @@ model_arrays! {
         /// Maximal runs of consecutive springs whose ends advance together (see [`SpringRun`]); derived. Empty when
         /// the runs would be too short to pay (irregular meshes): the gather kernel is used then.
         spring_runs: Vec<SpringRun>,
+        /// The cloth grids among the triangles, as [`crate::Mesh::grid`] lays them out (recorded by
+        /// [`ModelBuilder::add_cloth_grid`]; see [`TriGrid`]). Fracture may change some of their triangles
+        /// afterwards: the wind pass checks each one.
+        tri_grids: Vec<TriGrid>,
         /// Gravity \[m/s^2\].
         gravity: R::V,
         /// Damping form.
@@ -176,6 +180,39 @@ model_arrays! {
         /// Moving pins; their particles are marked in `particle_handle`.
         handles: Vec<Handle>,
         }
+    }
+}
+
+/// An `nx × ny` cloth grid's triangles as [`crate::Mesh::grid`] lays them out: particle `base + j nx + i` at
+/// column `i`, row `j`; quad `(i, j)`'s two triangles at `first + 2 (j (nx - 1) + i)`, split along one diagonal
+/// or the other by the parity of `i + j` ([`TriGrid::quad`]). The wind pass computes such triangles a row of
+/// quads at a time from contiguous rows of particles, and sums them per particle without a gather
+/// (`forces::wind_grid`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
+pub struct TriGrid {
+    /// First triangle.
+    pub first: u32,
+    /// Particle at column 0, row 0.
+    pub base: u32,
+    /// Particles per row.
+    pub nx: u32,
+    /// Rows.
+    pub ny: u32,
+}
+
+impl TriGrid {
+    /// Triangles in the grid.
+    pub fn tri_count(&self) -> usize {
+        2 * (self.nx as usize - 1) * (self.ny as usize - 1)
+    }
+
+    /// The two triangles of quad `(i, j)` as laid out (`i < nx - 1`, `j < ny - 1`), corners counter-clockwise as
+    /// in [`crate::Mesh::grid`].
+    pub fn quad(&self, i: u32, j: u32) -> [[u32; 3]; 2] {
+        let v = |a: u32, b: u32| self.base + b * self.nx + a;
+        let (p00, p10, p01, p11) = (v(i, j), v(i + 1, j), v(i, j + 1), v(i + 1, j + 1));
+        if (i + j) % 2 == 0 { [[p00, p01, p11], [p00, p11, p10]] } else { [[p00, p01, p10], [p10, p01, p11]] }
     }
 }
 

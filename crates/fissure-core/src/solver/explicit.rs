@@ -96,7 +96,7 @@ impl<R: Real> CpuSolver<R> {
                     }
                     if surface {
                         // Reached without wind only (`fuse_loads`): the triangles' forces are the gas's.
-                        debug_assert!(!f.tri_f_written);
+                        debug_assert!(!f.tri_f_written && !f.tri_summed);
                         let share = pressure_share(m, f, i);
                         ft += share;
                         if gas {
@@ -180,8 +180,15 @@ impl<R: Real> CpuSolver<R> {
                 } else {
                     run_block_dispatch::<R, false>(m, f.run_blocks.of(p0), q, qd, p0, fs, sink_ref);
                 }
-                if !surface {
-                    // No triangle terms: the update over the components, without branches.
+                if surface && f.tri_summed {
+                    // The grid wind pass summed each particle's triangles: one add a particle, over the components.
+                    let sums = R::flat(&f.tri_sums[p0..p0 + fs.len()]);
+                    for (a, &b) in R::flat_mut(fs).iter_mut().zip(sums) {
+                        *a += b;
+                    }
+                }
+                if !surface || f.tri_summed {
+                    // No triangle terms left: the update over the components, without branches.
                     if update_dispatch(m, q, qd, p0, fs, qs, vs, dt) {
                         blown.store(true, Ordering::Relaxed);
                     }
