@@ -242,11 +242,11 @@ pub(crate) const SPAN: usize = 64;
 
 /// The triangles a call of the wind kernel computes, and what it does with their cross vectors.
 pub(crate) enum Tris<'a, R: Real> {
-    /// Triangles `start .. start + cross.len()` (the surface pass): their crosses read from `cross`, or with
-    /// `form` formed here from the positions the kernel loads anyway and stored (a model without gas: no pass of
-    /// its own for them; 128² cloth in wind, harness `terms`, 2026-11-24: the surface stage 149–150 → 140–142 µs a
-    /// step).
-    Range { start: usize, cross: &'a mut [R::V], form: bool },
+    /// Triangles `start .. start + out.len()` (the surface pass): their crosses read from `cross` (formed by the
+    /// gas's pass), or without it formed here from the positions the kernel loads anyway (a model without gas: no
+    /// pass of its own for them; 128² cloth in wind, harness `terms`, 2026-11-24: the surface stage 149–150 →
+    /// 140–142 µs a step).
+    Range { start: usize, cross: Option<&'a [R::V]> },
     /// The listed triangles (the loose ones of a grid model, `forces::wind_grid`): their crosses formed here and
     /// not kept.
     List(&'a [u32]),
@@ -323,7 +323,7 @@ fn wind_chunk_impl<R: Real>(
     m: &Model<R>,
     q: &[R::V],
     qd: &[R::V],
-    mut tris: Tris<'_, R>,
+    tris: Tris<'_, R>,
     pressure: &[R],
     w: &PreparedWind<R>,
     rho_half: R,
@@ -385,14 +385,9 @@ fn wind_chunk_impl<R: Real>(
             let centroid = ((qa + qb + qc) * third).to_array();
             let vel = ((va + vb + vc) * third).to_array();
             // The surface pass's formula (`forces::cross_chunk`): the same bits.
-            let cr = match &mut tris {
-                Tris::Range { cross, form: false, .. } => cross[k0 + k],
-                Tris::Range { cross, form: true, .. } => {
-                    let cr = (qb - qa).cross(qc - qa);
-                    cross[k0 + k] = cr;
-                    cr
-                }
-                Tris::List(_) => (qb - qa).cross(qc - qa),
+            let cr = match &tris {
+                Tris::Range { cross: Some(cross), .. } => cross[k0 + k],
+                Tris::Range { cross: None, .. } | Tris::List(_) => (qb - qa).cross(qc - qa),
             }
             .to_array();
             for e in 0..3 {
