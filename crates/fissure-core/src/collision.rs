@@ -11,6 +11,8 @@
 //! parry3d works in `f32`; with an `f64` model the query point is rounded to `f32` and only contacts are
 //! affected by that rounding. The accuracy references have no colliders.
 
+pub(crate) mod lanes;
+
 use crate::error::{MeshError, ModelError};
 use crate::mesh::Mesh;
 use glam::{Quat, Vec3};

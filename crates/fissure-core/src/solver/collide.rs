@@ -1,9 +1,10 @@
 //! The collision pass: every particle against the prepared colliders, with a per-block broad test.
 
 use super::*;
+use crate::collision::lanes;
 
-/// Particles per block of the collision pass's broad test (one bounding box per block).
-const COLLIDE_BLOCK: usize = 32;
+/// Particles per block of the collision pass's broad test (one bounding box per block), and of its lanes.
+const COLLIDE_BLOCK: usize = lanes::LANES;
 /// Colliders a block keeps in its near list on the stack; with more colliders in the scene every block tests all.
 const COLLIDE_NEAR: usize = 64;
 /// Pushes of one particle recorded for the far colliders' check; past it, the particle takes the full resolve.
@@ -119,6 +120,10 @@ pub(super) fn collide_chunk<R: Real>(
     // so the result is the same bit for bit; otherwise the particle takes the full resolve.
     let mut near = [0u32; COLLIDE_NEAR];
     let mut bad = false;
+    // Planes and balls only: each block goes through them all at once, lane by lane (`collision::lanes`: the same
+    // bits as the full resolve below, which the near list and far check reproduce).
+    let closed = lanes::all_closed_form(prepared);
+    let mut block = lanes::Lanes::new();
     for (b, (qb, vb)) in qs.chunks_mut(COLLIDE_BLOCK).zip(vs.chunks_mut(COLLIDE_BLOCK)).enumerate() {
         let p0 = start + b * COLLIDE_BLOCK;
         let (mut lo, mut hi) = (glam::Vec3::splat(f32::INFINITY), glam::Vec3::splat(f32::NEG_INFINITY));
@@ -141,6 +146,25 @@ pub(super) fn collide_chunk<R: Real>(
             }
             all = count == prepared.len();
         }
+        if closed {
+            for (k, (x, v)) in qb.iter().zip(vb.iter()).enumerate() {
+                let (x, v) = (x.to_vec3().to_array(), v.to_vec3().to_array());
+                for e in 0..3 {
+                    (block.x[e][k], block.v[e][k]) = (x[e], v[e]);
+                }
+            }
+            lanes::resolve_lanes(prepared, colliders, &mut block);
+            for k in 0..qb.len() {
+                if !block.hit[k] || inv_mass[p0 + k] == R::ZERO {
+                    continue;
+                }
+                let (x, v) = (&block.x, &block.v);
+                qb[k] = R::V::from_vec3(glam::Vec3::new(x[0][k], x[1][k], x[2][k]));
+                vb[k] = R::V::from_vec3(glam::Vec3::new(v[0][k], v[1][k], v[2][k]));
+                bad |= !(qb[k].is_finite() && vb[k].is_finite());
+            }
+            continue;
+        }
         if all {
             // Every collider is near: nothing to check afterwards.
             for k in 0..qb.len() {
@@ -156,19 +180,29 @@ pub(super) fn collide_chunk<R: Real>(
             }
             continue;
         }
+        // The far colliders, listed once for the block (they were filtered out of all of them per particle).
+        let mut far = [0u32; COLLIDE_NEAR];
+        let mut nf = 0;
+        for c in 0..prepared.len() as u32 {
+            if !near[..count].contains(&c) {
+                far[nf] = c;
+                nf += 1;
+            }
+        }
+        let (near, far) = (&near[..count], &far[..nf]);
         for k in 0..qb.len() {
             if inv_mass[p0 + k] == R::ZERO {
                 continue;
             }
             let (x, v) = (qb[k].to_vec3(), vb[k].to_vec3());
             let mut pushed = ([glam::Vec3::ZERO; PUSHES], 0usize, true);
-            let near = &near[..count];
             let Some(mut out) = sweeps::<true>(prepared, colliders, near, x, v, &mut pushed) else { continue };
             let (list, n, complete) = pushed;
             let far_clear = complete
-                && (0..prepared.len())
-                    .filter(|c| !near.contains(&(*c as u32)))
-                    .all(|c| list[..n].iter().all(|&xp| prepared[c].resolve(&colliders[c], xp, v).is_none()));
+                && far.iter().all(|&c| {
+                    let c = c as usize;
+                    list[..n].iter().all(|&xp| prepared[c].resolve(&colliders[c], xp, v).is_none())
+                });
             if !far_clear {
                 out = sweeps::<true>(prepared, colliders, every, x, v, &mut pushed)
                     .expect("a particle a near collider touches is touched by the full resolve");

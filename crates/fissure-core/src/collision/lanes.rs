@@ -1,0 +1,238 @@
+//! Planes and balls against a block of particles at once: [`PreparedCollider::resolve`] lane by lane.
+//!
+//! A cloth resting on the ground keeps nearly every particle in contact, and the per-particle resolve (a plane's
+//! push, the collider's velocity, the normal and friction response, then a second sweep that finds the particle
+//! clear) cost ~15 ns a particle on one thread: on the harness's 128² cloth draped over the ground and a ball,
+//! 2.2× the spring pass (2026-11-25). Here the same formulas run over 32 particles at a time in per-component
+//! arrays, with selects where the scalar code branches: the compiler packs them. Each lane performs the scalar
+//! code's operations in its order, so the bits are the same (the state-hash scenes with a ground check it);
+//! sweeps repeat while any lane was pushed, which leaves the lanes that were not as they were (their next test
+//! sees the same position). Colliders of other shapes go through the scalar path.
+
+use super::{Collider, PreparedCollider, Quick};
+
+/// Particles per block.
+pub(crate) const LANES: usize = 32;
+
+/// A block's positions and velocities per component, and which lanes a collider pushed.
+pub(crate) struct Lanes {
+    pub x: [[f32; LANES]; 3],
+    pub v: [[f32; LANES]; 3],
+    pub hit: [bool; LANES],
+}
+
+impl Lanes {
+    pub(crate) fn new() -> Self {
+        Lanes { x: [[0.0; LANES]; 3], v: [[0.0; LANES]; 3], hit: [false; LANES] }
+    }
+}
+
+/// Whether [`resolve_lanes`] serves `prepared`: planes and balls only.
+pub(crate) fn all_closed_form(prepared: &[PreparedCollider]) -> bool {
+    prepared.iter().all(|p| !matches!(p.quick, Quick::None))
+}
+
+/// Every lane of `b` against `prepared` (prepared from `colliders`, all of them, in order), sweeping until no lane
+/// is pushed (at most 3 sweeps; one with a single collider), as the collision pass's `sweeps` does particle by
+/// particle; `b.hit` tells which lanes were pushed. Only for [`all_closed_form`] colliders. Compiled for AVX-512
+/// or AVX2 when the CPU has them (the same bits: see `crate::isa`).
+pub(crate) fn resolve_lanes(prepared: &[PreparedCollider], colliders: &[Collider], b: &mut Lanes) {
+    #[cfg(target_arch = "x86_64")]
+    {
+        if crate::isa::avx512() {
+            // SAFETY: the CPU supports AVX-512 F and VL, checked just above.
+            unsafe { resolve_lanes_avx512(prepared, colliders, b) };
+            return;
+        }
+        if crate::isa::avx2() {
+            // SAFETY: the CPU supports AVX2, checked just above.
+            unsafe { resolve_lanes_avx2(prepared, colliders, b) };
+            return;
+        }
+    }
+    resolve_lanes_impl(prepared, colliders, b)
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx512f,avx512vl")]
+fn resolve_lanes_avx512(prepared: &[PreparedCollider], colliders: &[Collider], b: &mut Lanes) {
+    resolve_lanes_impl(prepared, colliders, b)
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+fn resolve_lanes_avx2(prepared: &[PreparedCollider], colliders: &[Collider], b: &mut Lanes) {
+    resolve_lanes_impl(prepared, colliders, b)
+}
+
+#[inline(always)]
+fn resolve_lanes_impl(prepared: &[PreparedCollider], colliders: &[Collider], b: &mut Lanes) {
+    b.hit = [false; LANES];
+    for _sweep in 0..3 {
+        let mut any = false;
+        for (p, c) in prepared.iter().zip(colliders) {
+            any |= collider_lanes(p, c, b);
+        }
+        if !any || colliders.len() == 1 {
+            break;
+        }
+    }
+}
+
+/// One collider against every lane; true if it pushed one. (The negated comparisons are the scalar code's early
+/// returns turned around: a NaN distance counts as a contact there too.)
+#[allow(clippy::neg_cmp_op_on_partial_ord)]
+#[inline(always)]
+fn collider_lanes(p: &PreparedCollider, c: &Collider, b: &mut Lanes) -> bool {
+    let z = [[0.0f32; LANES]; 3];
+    let (mut xn, mut nrm) = (z, z);
+    let mut contact = [false; LANES];
+    match p.quick {
+        Quick::Plane(n, d, _) => {
+            let (n, margin) = (n.to_array(), c.margin);
+            for k in 0..LANES {
+                // `resolve`'s plane: the signed distance; at or past the margin no contact.
+                let s = (n[0] * b.x[0][k] + n[1] * b.x[1][k]) + n[2] * b.x[2][k] - d;
+                contact[k] = !(s >= margin);
+                let t = margin - s;
+                for e in 0..3 {
+                    xn[e][k] = b.x[e][k] + n[e] * t;
+                    nrm[e][k] = n[e];
+                }
+            }
+        }
+        Quick::Sphere(centre, reach, r) => {
+            let centre = centre.to_array();
+            let (lim, m2, out) = (reach * reach * (1.0 + 1e-4) + 1e-12, c.margin * c.margin, r + c.margin);
+            for k in 0..LANES {
+                let d = [b.x[0][k] - centre[0], b.x[1][k] - centre[1], b.x[2][k] - centre[2]];
+                let l2 = (d[0] * d[0] + d[1] * d[1]) + d[2] * d[2];
+                let l = l2.sqrt();
+                let clear = (l >= r) & ((l - r) * (l - r) >= m2);
+                contact[k] = !(l2 > lim) & !clear;
+                let pos = l > 0.0;
+                // `d / l`, or +y at the centre.
+                let n = [
+                    if pos { d[0] / l } else { 0.0 },
+                    if pos { d[1] / l } else { 1.0 },
+                    if pos { d[2] / l } else { 0.0 },
+                ];
+                for e in 0..3 {
+                    xn[e][k] = centre[e] + n[e] * out;
+                    nrm[e][k] = n[e];
+                }
+            }
+        }
+        Quick::None => unreachable!("resolve_lanes serves planes and balls only"),
+    }
+    // `resolve`'s response: the collider's velocity at the contact, the normal part reflected (or stopped below
+    // the restitution threshold), the tangential part shortened by Coulomb friction; none when separating.
+    let (lin, ang, t) = (c.linear_velocity.to_array(), c.angular_velocity.to_array(), p.pose.translation.to_array());
+    // No lane touches (a block near a collider but clear of it): no response to form.
+    if !contact.iter().any(|&c| c) {
+        return false;
+    }
+    let (threshold, restitution, friction) = (c.restitution_threshold, c.restitution, c.friction);
+    // Three simple loops (one doing all of it stayed scalar): the relative velocity and its normal part, the
+    // response's factors, the update.
+    let (mut vc, mut vr, mut vn) = (z, z, [0.0f32; LANES]);
+    for k in 0..LANES {
+        let xr = [xn[0][k] - t[0], xn[1][k] - t[1], xn[2][k] - t[2]];
+        vc[0][k] = lin[0] + (ang[1] * xr[2] - xr[1] * ang[2]);
+        vc[1][k] = lin[1] + (ang[2] * xr[0] - xr[2] * ang[0]);
+        vc[2][k] = lin[2] + (ang[0] * xr[1] - xr[0] * ang[1]);
+        for e in 0..3 {
+            vr[e][k] = b.v[e][k] - vc[e][k];
+        }
+        vn[k] = (vr[0][k] * nrm[0][k] + vr[1][k] * nrm[1][k]) + vr[2][k] * nrm[2][k];
+    }
+    let (mut vn_new, mut scale, mut vt) = ([0.0f32; LANES], [0.0f32; LANES], z);
+    for k in 0..LANES {
+        vn_new[k] = if -vn[k] > threshold { -restitution * vn[k] } else { 0.0 };
+        for e in 0..3 {
+            vt[e][k] = vr[e][k] - nrm[e][k] * vn[k];
+        }
+        let vt_len = ((vt[0][k] * vt[0][k] + vt[1][k] * vt[1][k]) + vt[2][k] * vt[2][k]).sqrt();
+        scale[k] = if vt_len > 0.0 { (1.0 - friction * (vn_new[k] - vn[k]) / vt_len).max(0.0) } else { 0.0 };
+    }
+    for k in 0..LANES {
+        let keep = (vn[k] >= 0.0) | !contact[k];
+        for e in 0..3 {
+            let v_out = (vc[e][k] + vt[e][k] * scale[k]) + nrm[e][k] * vn_new[k];
+            b.v[e][k] = if keep { b.v[e][k] } else { v_out };
+            b.x[e][k] = if contact[k] { xn[e][k] } else { b.x[e][k] };
+        }
+        b.hit[k] |= contact[k];
+    }
+    contact.iter().any(|&c| c)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use glam::Vec3;
+
+    /// The scalar rule the collision pass applies to one particle (`solver/collide.rs`, `sweeps`).
+    fn scalar(prepared: &[PreparedCollider], colliders: &[Collider], x: Vec3, v: Vec3) -> Option<(Vec3, Vec3)> {
+        let (mut x, mut v, mut touched) = (x, v, false);
+        for _ in 0..3 {
+            let mut any = false;
+            for (p, c) in prepared.iter().zip(colliders) {
+                if let Some((x2, v2)) = p.resolve(c, x, v) {
+                    (x, v, any) = (x2, v2, true);
+                }
+            }
+            touched |= any;
+            if !any || colliders.len() == 1 {
+                break;
+            }
+        }
+        touched.then_some((x, v))
+    }
+
+    /// Lanes give the scalar resolve's bits: a tilted moving plane and a spinning ball with restitution and
+    /// friction, particles inside, on and outside both (one at the ball's centre, one with a NaN coordinate), a
+    /// single collider and both.
+    #[test]
+    fn lanes_give_the_scalar_bits() {
+        let plane = Collider::plane(Vec3::new(0.0, 0.1, 0.0), Vec3::new(0.1, 1.0, -0.2))
+            .with_velocity(Vec3::new(0.3, 0.1, 0.0), Vec3::ZERO)
+            .with_restitution(0.5)
+            .with_friction(0.3)
+            .with_margin(1e-3);
+        let ball = Collider::ball(Vec3::new(0.2, 0.15, 0.1), 0.12)
+            .with_velocity(Vec3::new(0.0, -0.2, 0.1), Vec3::new(0.5, 2.0, -1.0))
+            .with_friction(0.8);
+        for colliders in [vec![plane.clone()], vec![plane, ball.clone()], vec![ball]] {
+            let prepared: Vec<PreparedCollider> = colliders.iter().map(|c| c.prepare(0.25)).collect();
+            assert!(all_closed_form(&prepared));
+            let mut b = Lanes::new();
+            let mut want = Vec::new();
+            for k in 0..LANES {
+                let f = k as f32;
+                let x = match k {
+                    0 => Vec3::new(0.2, 0.15, 0.1),
+                    1 => Vec3::new(f32::NAN, 0.0, 0.0),
+                    _ => Vec3::new((f * 0.37).sin() * 0.3, (f * 0.53).cos() * 0.2 + 0.1, (f * 0.71).sin() * 0.2),
+                };
+                let v = Vec3::new((f * 0.9).cos(), (f * 1.3).sin() - 0.5, (f * 0.4).cos()) * 2.0;
+                for e in 0..3 {
+                    (b.x[e][k], b.v[e][k]) = (x[e], v[e]);
+                }
+                want.push(scalar(&prepared, &colliders, x, v));
+            }
+            resolve_lanes(&prepared, &colliders, &mut b);
+            let bits = |v: Vec3| v.to_array().map(f32::to_bits);
+            let mut pushed = 0;
+            for (k, w) in want.iter().enumerate() {
+                let got = (Vec3::new(b.x[0][k], b.x[1][k], b.x[2][k]), Vec3::new(b.v[0][k], b.v[1][k], b.v[2][k]));
+                assert_eq!(b.hit[k], w.is_some(), "lane {k}: pushed or not");
+                if let Some((x, v)) = w {
+                    assert_eq!((bits(got.0), bits(got.1)), (bits(*x), bits(*v)), "lane {k}");
+                    pushed += 1;
+                }
+            }
+            assert!(pushed > 3 && pushed < LANES - 3, "{pushed} of {LANES} lanes pushed: both cases tested");
+        }
+    }
+}
