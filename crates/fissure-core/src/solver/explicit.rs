@@ -96,7 +96,7 @@ impl<R: Real> CpuSolver<R> {
                     }
                     if surface {
                         // Reached without wind only (`fuse_loads`): the triangles' forces are the gas's.
-                        debug_assert!(!f.tri_f_written && !f.tri_summed);
+                        debug_assert!(!f.tri_f_written);
                         let share = pressure_share(m, f, i);
                         ft += share;
                         if gas {
