@@ -62,6 +62,51 @@ fn strip_tears_at_one_force_per_width_on_any_mesh_and_step() {
     assert!(hi / lo < 1.1, "tear force per width varies by {:.1} %: {peaks:?}", (hi / lo - 1.0) * 100.0);
 }
 
+/// A grid cloth in wind keeps the grid wind pass as it tears (`forces::wind_grid`: the triangles fracture
+/// changed or added are computed by the general kernel and added to their corners): on the torn strip the forces
+/// agree with the general pass (the same model with its grids forgotten) to f64 rounding, and are not bit for bit
+/// the same (so the grid pass ran).
+#[test]
+fn a_tearing_cloth_in_wind_keeps_the_grid_wind_pass() {
+    let (mut w, _) = pulled_sheet(33, 0.2, 0.1, 0.02, TEAR);
+    w.model.wind = Some(WindField { velocity: DVec3::new(0.5, 1.0, 3.0), ..Default::default() });
+    w.model.body_drag.iter_mut().for_each(|d| *d = 1.0);
+    w.model.body_lift.iter_mut().for_each(|l| *l = 0.5);
+    w.solver.notify_model_changed(&w.model, &TopologyDelta::whole());
+    let (particles, triangles) = (w.model.particle_count(), w.model.tri_count());
+    let cpu = w.solver.as_any_mut().downcast_mut::<CpuSolver<f64>>().unwrap();
+    let dt = 0.8 * cpu.stability_bound(&w.model).max_dt(Integrator::SymplecticEuler);
+    for _ in 0..(0.25 / dt).ceil() as usize {
+        w.step(dt).unwrap();
+    }
+    assert!(w.model.body_count() >= 2, "the strip tore through in the wind");
+    // Triangles whose corners fracture moved: off their grid's layout.
+    let moved = w.model.tri_indices.iter().filter(|t| t.iter().any(|&v| v as usize >= particles)).count();
+    assert!(moved > 0 && w.model.tri_count() >= triangles, "{moved} triangles on split particles");
+    // Over a tenth of the triangles off their grid's layout: split corners, detached pieces, new triangles.
+    let g = w.model.tri_grids[0];
+    let mut off = w.model.tri_count() - g.tri_count();
+    for j in 0..g.ny - 1 {
+        for i in 0..g.nx - 1 {
+            let t = g.first as usize + 2 * (j * (g.nx - 1) + i) as usize;
+            for (k, want) in g.quad(i, j).into_iter().enumerate() {
+                off += (w.model.tri_indices[t + k] != want || w.model.tri_body[t + k] != 0) as usize;
+            }
+        }
+    }
+    assert!(off * 10 > w.model.tri_count(), "{off} of {} triangles off the layout", w.model.tri_count());
+    let mut general = w.model.clone();
+    general.tri_grids.clear();
+    let n = w.model.particle_count();
+    let (mut fa, mut fb) = (vec![DVec3::ZERO; n], vec![DVec3::ZERO; n]);
+    CpuSolver::<f64>::default().compute_forces(&w.model, &w.state, &mut fa).unwrap();
+    CpuSolver::<f64>::default().compute_forces(&general, &w.state, &mut fb).unwrap();
+    let scale = fb.iter().map(|f| f.length()).fold(0.0, f64::max);
+    let worst = fa.iter().zip(&fb).map(|(a, b)| (*a - *b).length()).fold(0.0, f64::max);
+    assert!(worst <= 1e-12 * scale, "forces differ by {worst} N (max {scale} N)");
+    assert!(worst > 0.0, "bit-identical forces: the grid pass did not run on the torn cloth");
+}
+
 /// Direction of the crack: the principal axis of the spring-event positions; returns its angle from the y axis
 /// (the perpendicular to the load) in degrees, and the number of events.
 fn crack_angle(w: &World<f64>) -> (f64, usize) {
