@@ -33,15 +33,13 @@ pub(crate) struct ForceScratch<R: Real> {
     /// particle's triangle forces are its pressure share, which [`pressure_share`] forms from the cross vectors
     /// where they are summed (one pass over the triangles fewer).
     pub tri_f: Vec<R::V>,
-    /// Whether this evaluation's corner forces (wind) are in `tri_f`, or with `tri_summed` in `tri_sums`; else
-    /// see [`pressure_share`].
+    /// Whether this evaluation's corner forces (wind) are in `tri_f`, or with a grid plan in `tri_sums`
+    /// ([`ForceScratch::tri_summed`]); else see [`pressure_share`].
     pub tri_f_written: bool,
     /// The grid wind pass's plan (a model in wind whose triangles are mostly cloth grids: `wind_grid`).
     pub grid_plan: Option<wind_grid::GridPlan>,
-    /// Each particle's sum of its triangles' wind forces \[N\] (the grid wind pass)…
+    /// Each particle's sum of its triangles' wind forces \[N\] (the grid wind pass).
     pub tri_sums: Vec<R::V>,
-    /// …holding this evaluation's forces (`tri_f_written` is set too).
-    pub tri_summed: bool,
     /// The grid plan's loose triangles' forces \[N\].
     pub loose_f: Vec<R::V>,
     /// `P / 6` of each body \[Pa\]: a corner's pressure share is `cross · P / 6`.
@@ -95,7 +93,8 @@ impl<R: Real> ForceScratch<R> {
         self.particle_spring.resize(if self.runs { m.particle_count() } else { 0 }, R::V::ZERO);
         let surface = m.has_pressure() || m.has_wind();
         let nt = if surface { m.tri_count() } else { 0 };
-        self.tri_cross.resize(nt, R::V::ZERO);
+        // Kept only for the gas (without it the wind pass forms each cross in its lanes and keeps none).
+        self.tri_cross.resize(if m.has_pressure() { nt } else { 0 }, R::V::ZERO);
         self.grid_plan = wind_grid::GridPlan::of_model(m);
         let planned = self.grid_plan.as_ref();
         self.tri_f.resize(if m.has_wind() && planned.is_none() { nt } else { 0 }, R::V::ZERO);
@@ -103,7 +102,6 @@ impl<R: Real> ForceScratch<R> {
         self.tri_sums.clear();
         self.tri_sums.resize(if planned.is_some() { m.particle_count() } else { 0 }, R::V::ZERO);
         self.loose_f.resize(planned.map_or(0, |p| p.loose.len()), R::V::ZERO);
-        self.tri_summed = false;
         self.body_p6.resize(m.body_count(), R::ZERO);
         self.body_volume.resize(m.body_count(), R::ZERO);
         self.body_pressure.resize(m.body_count(), R::ZERO);
@@ -155,6 +153,11 @@ impl<R: Real> ForceScratch<R> {
         self.load = load;
     }
 
+    /// Whether `tri_sums` holds this evaluation's wind forces, summed per particle (the grid wind pass ran).
+    pub fn tri_summed(&self) -> bool {
+        self.tri_f_written && self.grid_plan.is_some()
+    }
+
     /// Triangle pass: crosses, body volumes and pressures (if any gas), wind (if any), into `tri_f`.
     /// `crosses_formed`: the crosses and volume partials of this evaluation are in place already (formed beside
     /// the spring pass: [`ForceScratch::springs_and_crosses`]).
@@ -204,7 +207,6 @@ impl<R: Real> ForceScratch<R> {
         }
         let wind = if m.has_wind() { m.wind.as_ref() } else { None };
         self.tri_f_written = wind.is_some();
-        self.tri_summed = wind.is_some() && self.grid_plan.is_some();
         let Some(wind) = wind else { return };
         let rho_half = R::from_f64(0.5 * wind.air_density);
         let wind = wind.prepare::<R>(time);
@@ -278,7 +280,7 @@ pub(crate) fn add_corners<R: Real>(f: R::V, m: &Model<R>, s: &ForceScratch<R>, i
     // One test on the gas's path (the usual one): a second in front of it cost the 642-vertex ball's gather a
     // third more (`fissure run scenes/ball_drop.toml`, one thread, 2026-11-25: integrate 0.27-0.32 -> 0.42 s).
     if s.tri_f_written {
-        if s.tri_summed {
+        if s.grid_plan.is_some() {
             return f + s.tri_sums[i];
         }
         m.particle_tris.row(i).iter().fold(f, |f, &t| f + s.tri_f[t as usize])

@@ -238,7 +238,7 @@ pub(crate) fn aero_components<R: Real>(c: [R; 3], v: [R; 3], cd: R, cl: R, rho_h
 }
 
 /// Triangles per span of the wind pass.
-pub(crate) const SPAN: usize = 64;
+const SPAN: usize = 64;
 
 /// The triangles a call of the wind kernel computes, and what it does with their cross vectors.
 pub(crate) enum Tris<'a, R: Real> {
@@ -419,19 +419,4 @@ fn wind_chunk_impl<R: Real>(
         }
         k0 += n;
     }
-}
-
-/// [`wind_chunk`] over the listed triangles (`out`: one force per listed triangle).
-#[allow(clippy::too_many_arguments)]
-pub(crate) fn wind_list<R: Real>(
-    m: &Model<R>,
-    q: &[R::V],
-    qd: &[R::V],
-    ids: &[u32],
-    pressure: &[R],
-    w: &PreparedWind<R>,
-    rho_half: R,
-    out: &mut [R::V],
-) {
-    wind_chunk(m, q, qd, Tris::List(ids), pressure, w, rho_half, out)
 }

@@ -180,14 +180,15 @@ impl<R: Real> CpuSolver<R> {
                 } else {
                     run_block_dispatch::<R, false>(m, f.run_blocks.of(p0), q, qd, p0, fs, sink_ref);
                 }
-                if surface && f.tri_summed {
+                let summed = f.tri_summed();
+                if summed {
                     // The grid wind pass summed each particle's triangles: one add a particle, over the components.
                     let sums = R::flat(&f.tri_sums[p0..p0 + fs.len()]);
                     for (a, &b) in R::flat_mut(fs).iter_mut().zip(sums) {
                         *a += b;
                     }
                 }
-                if !surface || f.tri_summed {
+                if !surface || summed {
                     // No triangle terms left: the update over the components, without branches.
                     if update_dispatch(m, q, qd, p0, fs, qs, vs, dt) {
                         blown.store(true, Ordering::Relaxed);
