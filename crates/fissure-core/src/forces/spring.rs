@@ -38,7 +38,8 @@ impl<R: Real> ForceScratch<R> {
     /// while the other waited; now the other thread runs springs meanwhile. The crosses stay on the caller's
     /// core, as before, for the gather that reads them (the other order, a helper forming them, made the gather
     /// slower by as much as it saved: `benches/RESULTS.md`, 25). The same pieces and chunks as the two passes
-    /// apart: the same bits. [`ForceScratch::surface`] is then told to skip them (`crosses_formed`).
+    /// apart: the same bits. The caps over a gas body's openings are one more piece. [`ForceScratch::surface`] is
+    /// then told to skip them (`crosses_formed`).
     pub fn springs_and_crosses(&mut self, m: &Model<R>, q: &[R::V], qd: &[R::V]) {
         match m.damping_model {
             DampingModel::Projected => self.springs_and_crosses_with::<true>(m, q, qd),
@@ -52,14 +53,24 @@ impl<R: Real> ForceScratch<R> {
         let ps = par::Pieces::new(&mut self.spring_f, size);
         let pc = par::Pieces::new(&mut self.tri_cross, par::CHUNK);
         let pv = par::Pieces::new(&mut self.vol_partials[..rows * nb], nb);
-        let nc = pc.count();
-        // SAFETY: `exec` runs each piece index once; triangle chunks and spring pieces are numbered apart.
-        par::exec(false, nc + ps.count(), &|k| unsafe {
+        let (nc, np) = (pc.count(), ps.count());
+        let caps = super::pressure::CapPieces::new(
+            &self.cap_loops,
+            &self.cap_rim,
+            &self.cap_touched,
+            &mut self.cap_g,
+            &mut self.cap_terms,
+        );
+        // SAFETY: `exec` runs each piece index once; triangle chunks, spring pieces and the caps (last: a helper
+        // takes it first) are numbered apart.
+        par::exec(false, nc + np + caps.count(), &|k| unsafe {
             if k < nc {
                 super::cross_chunk(m, q, true, k * par::CHUNK, pc.get(k), pv.get(k))
-            } else {
+            } else if k < nc + np {
                 let p = k - nc;
                 spring_chunk_dispatch::<R, PROJECTED, false>(m, q, qd, p * size, ps.get(p), None, &mut [])
+            } else {
+                caps.run(m, q)
             }
         });
     }

@@ -102,8 +102,8 @@ impl<R: Real> CpuSolver<R> {
                         if gas {
                             fe += share;
                         }
-                        if !f.cap_f.is_empty() {
-                            ft += f.cap_f[i];
+                        if !f.cap_g.is_empty() {
+                            ft += cap_force(m, f, i);
                         }
                     }
                     ls[k] = if m.particle_load_limit[i].is_finite() { fe.length() } else { R::ZERO };
@@ -207,8 +207,8 @@ impl<R: Real> CpuSolver<R> {
                     }
                     // With triangle terms (the case without them returned above).
                     let mut force = add_corners(m.gravity * m.particle_mass[i] + fs[k], m, f, i);
-                    if !f.cap_f.is_empty() {
-                        force += f.cap_f[i];
+                    if !f.cap_g.is_empty() {
+                        force += cap_force(m, f, i);
                     }
                     let v = qd[i] + force * (w * dt);
                     vs[k] = v;

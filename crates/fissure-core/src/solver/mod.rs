@@ -20,7 +20,7 @@
 
 use crate::error::StepError;
 use crate::forces::spring::{StrainSink, implicit_coefficients, run_block_dispatch};
-use crate::forces::{ForceScratch, add_corners, particle_force, pressure, pressure_share};
+use crate::forces::{ForceScratch, add_corners, cap_force, particle_force, pressure, pressure_share};
 use crate::fracture::TopologyDelta;
 use crate::model::{DampingModel, Model, State};
 use crate::par;
