@@ -8,6 +8,7 @@
 //! the grid wind pass instead (`forces/wind_grid.rs`): whole rows of quads, summed per particle without a gather.
 
 pub mod pressure;
+pub(crate) mod runs;
 pub mod spring;
 pub mod wind;
 pub(crate) mod wind_grid;
@@ -26,7 +27,7 @@ pub(crate) struct ForceScratch<R: Real> {
     /// Whether the run kernel is used (`particle_spring` holds the sums) or the gather (`spring_f`).
     pub runs: bool,
     /// The runs each block walks (run kernel).
-    pub run_blocks: spring::RunBlocks,
+    pub run_blocks: runs::RunBlocks,
     /// `(x1 - x0) × (x2 - x0)` of each triangle \[m^2\].
     pub tri_cross: Vec<R::V>,
     /// Force on each corner of each triangle (pressure + wind share) \[N\], written only with wind: without it a
@@ -92,7 +93,7 @@ impl<R: Real> ForceScratch<R> {
     /// (the implicit solver reuses it for its matrix products).
     pub fn resize(&mut self, m: &Model<R>, spring_buffer: bool) {
         self.runs = m.springs_are_runs();
-        self.run_blocks = if self.runs { spring::RunBlocks::of_model(m) } else { spring::RunBlocks::default() };
+        self.run_blocks = if self.runs { runs::RunBlocks::of_model(m) } else { runs::RunBlocks::default() };
         let ns = if spring_buffer || !self.runs { m.spring_count() } else { 0 };
         self.spring_f.resize(ns, R::V::ZERO);
         self.particle_spring.resize(if self.runs { m.particle_count() } else { 0 }, R::V::ZERO);

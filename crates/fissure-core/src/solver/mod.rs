@@ -19,7 +19,8 @@
 //! step was too large or something else (pressure, a collision, a broken state) did it.
 
 use crate::error::StepError;
-use crate::forces::spring::{StrainSink, implicit_coefficients, run_block_dispatch};
+use crate::forces::runs::run_block_dispatch;
+use crate::forces::spring::{StrainSink, implicit_coefficients};
 use crate::forces::{ForceScratch, add_corners, cap_force, particle_force, pressure, pressure_share};
 use crate::fracture::TopologyDelta;
 use crate::model::{DampingModel, Model, State};
