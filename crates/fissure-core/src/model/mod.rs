@@ -430,6 +430,18 @@ impl<R: Real> Model<R> {
         !self.spring_runs.is_empty() && self.spring_count() >= 16 * self.spring_runs.len()
     }
 
+    /// How many springs the CPU step reads their own rest length, stiffness and damping for. On a model of runs
+    /// (a grid cloth) the run kernel reads a run's shared parameters once for every span of springs that has
+    /// them (bit for bit), so only the others count; otherwise every spring does. (The memory a step must move:
+    /// the harness's bandwidth floor.)
+    pub fn springs_with_own_parameters(&self) -> usize {
+        if self.springs_are_runs() {
+            crate::forces::runs::SharedParameters::of_model(self).own_count(self)
+        } else {
+            self.spring_count()
+        }
+    }
+
     /// Connected pieces of the surface (particles joined by springs): `(count, label per particle)`.
     pub fn components(&self) -> (usize, Vec<u32>) {
         connected_components(

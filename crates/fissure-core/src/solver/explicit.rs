@@ -176,9 +176,9 @@ impl<R: Real> CpuSolver<R> {
             &mut self.qd_next,
             |p0, fs, qs, vs| {
                 if projected {
-                    run_block_dispatch::<R, true>(m, f.run_blocks.of(p0), q, qd, p0, fs, sink_ref);
+                    run_block_dispatch::<R, true>(m, &f.run_blocks, q, qd, p0, fs, sink_ref);
                 } else {
-                    run_block_dispatch::<R, false>(m, f.run_blocks.of(p0), q, qd, p0, fs, sink_ref);
+                    run_block_dispatch::<R, false>(m, &f.run_blocks, q, qd, p0, fs, sink_ref);
                 }
                 let summed = f.tri_summed();
                 if summed {
