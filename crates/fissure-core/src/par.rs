@@ -298,21 +298,8 @@ pub(crate) fn chunks4_pooled<A: Send, B: Send, C: Send, D: Send>(
     exec(pool, pa.count(), &|i| unsafe { f(i * size, pa.get(i), pb.get(i), pc.get(i), pd.get(i)) });
 }
 
-/// Like [`chunks`] over three slices of equal length walked together, in chunks of `size` elements (see
-/// [`chunks_of`]).
-#[inline]
-pub(crate) fn chunks3_of<A: Send, B: Send, C: Send>(
-    size: usize,
-    a: &mut [A],
-    b: &mut [B],
-    c: &mut [C],
-    f: impl Fn(usize, &mut [A], &mut [B], &mut [C]) + Sync + Send,
-) {
-    let pool = is_pooled(a.len());
-    chunks3_pooled(pool, size, a, b, c, f)
-}
-
-/// [`chunks3_of`]'s walk, on the pool if `pool` (see [`chunks2_pooled`]).
+/// Like [`chunks`] over three slices of equal length walked together, in chunks of `size` elements, on the pool if
+/// `pool` (see [`chunks2_pooled`]).
 #[inline]
 pub(crate) fn chunks3_pooled<A: Send, B: Send, C: Send>(
     pool: bool,

@@ -270,3 +270,25 @@ fn a_renumbered_mesh_gives_the_same_physics() {
         assert!(dq[j] < 1e-10 && dv[j] < 1e-8, "renumbering {j} departs by {} m, {} m/s after 0.15 s", dq[j], dv[j]);
     }
 }
+
+/// A solver first stepped in a pool of one thread, then in a pool of four: the run kernel's per-thread block
+/// buffers were counted in the first (two), so some of the larger pool's blocks take new ones. The bits stay one
+/// thread's, and nothing panics.
+#[test]
+fn a_solver_sized_in_a_small_pool_steps_in_a_larger_one() {
+    let mut b = ModelBuilder::new();
+    let opts = ClothOptions { pins: vec![0, 139], mass: Mass::PerParticle(1e-3), ..Default::default() };
+    b.add_cloth_grid(140, 140, 0.01, |p| DVec3::new(p.x, 1.0, p.y), &opts).unwrap();
+    let model: Model<f32> = b.finalize().unwrap();
+    assert!(model.springs_are_runs() && model.particle_count() > 16_384);
+    let steps = |pools: [usize; 2]| {
+        let mut s = model.state();
+        let mut solver = CpuSolver::<f32>::default();
+        for threads in pools {
+            let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
+            pool.install(|| (0..10).for_each(|_| solver.step(&model, &mut s, 2e-4).unwrap()));
+        }
+        fingerprint(&s)
+    };
+    assert_eq!(steps([1, 4]), steps([1, 1]));
+}

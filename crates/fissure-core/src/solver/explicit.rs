@@ -11,6 +11,58 @@ pub(super) struct Rk4Scratch<R: Real> {
     pub(super) av: Vec<R::V>,
 }
 
+/// The fused symplectic Euler path's per-block force buffers (see `CpuSolver::block_f`): `count` buffers of `len`.
+#[derive(Debug, Default)]
+pub(super) struct BlockBuffers<R: Real>(Vec<std::sync::Mutex<Vec<R::V>>>);
+
+impl<R: Real> BlockBuffers<R> {
+    pub(super) fn new(count: usize, len: usize) -> Self {
+        BlockBuffers((0..count).map(|_| std::sync::Mutex::new(vec![R::V::ZERO; len])).collect())
+    }
+
+    /// A buffer of `len` that no other thread holds: one of the kept buffers, or (more threads than were counted
+    /// when they were made: a step inside a larger pool than the solver was sized in) a new one.
+    fn take(&self, len: usize) -> Taken<'_, R> {
+        match self.0.iter().find_map(|b| b.try_lock().ok()) {
+            Some(b) if b.len() >= len => Taken::Kept(b),
+            _ => Taken::New(vec![R::V::ZERO; len]),
+        }
+    }
+}
+
+/// A block's force buffer (see [`BlockBuffers::take`]).
+enum Taken<'a, R: Real> {
+    Kept(std::sync::MutexGuard<'a, Vec<R::V>>),
+    New(Vec<R::V>),
+}
+
+impl<R: Real> std::ops::Deref for Taken<'_, R> {
+    type Target = Vec<R::V>;
+    fn deref(&self) -> &Vec<R::V> {
+        match self {
+            Taken::Kept(b) => b,
+            Taken::New(b) => b,
+        }
+    }
+}
+
+impl<R: Real> std::ops::DerefMut for Taken<'_, R> {
+    fn deref_mut(&mut self) -> &mut Vec<R::V> {
+        match self {
+            Taken::Kept(b) => b,
+            Taken::New(b) => b,
+        }
+    }
+}
+
+impl<R: Real> Clone for BlockBuffers<R> {
+    /// Buffers of the same shape (their contents are scratch).
+    fn clone(&self) -> Self {
+        let len = self.0.first().map_or(0, |b| b.lock().map_or(0, |v| v.len()));
+        Self::new(self.0.len(), len)
+    }
+}
+
 /// Particles per piece of a gather pass handed to the pool (see [`par::gather_pool`]): small enough that two
 /// threads share a 10,242-vertex ball's 20 pieces evenly (at 2,048 they split its 5 pieces 3 to 2).
 const GATHER_CHUNK: usize = 512;
@@ -169,12 +221,13 @@ impl<R: Real> CpuSolver<R> {
                 collide_ns.fetch_add(t.elapsed().as_nanos() as u64, Ordering::Relaxed);
             }
         };
-        par::chunks3_of(
-            f.run_blocks.len(),
-            &mut self.f_block,
-            &mut self.q_next,
-            &mut self.qd_next,
-            |p0, fs, qs, vs| {
+        let block_f = &self.block_f;
+        let pool = par::is_pooled(s.particle_q.len());
+        par::chunks2_pooled(pool, f.run_blocks.len(), &mut self.q_next, &mut self.qd_next, |p0, qs, vs| {
+            {
+                // A free buffer: as many as threads can run blocks at once (see `CpuSolver::block_f`).
+                let mut fs = block_f.take(qs.len());
+                let fs = &mut fs[..qs.len()];
                 if projected {
                     run_block_dispatch::<R, true>(m, &f.run_blocks, q, qd, p0, fs, sink_ref);
                 } else {
@@ -219,8 +272,8 @@ impl<R: Real> CpuSolver<R> {
                     blown.store(true, Ordering::Relaxed);
                 }
                 collide(p0, qs, vs);
-            },
-        );
+            }
+        });
         // The collision work's share of the pass's wall time: its pieces' summed time over the threads.
         let pass = t.elapsed();
         let collided = if fused.is_some() {
