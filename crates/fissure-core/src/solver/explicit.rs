@@ -522,15 +522,37 @@ fn update<R: Real>(
     // Per span of particles, their factors spread over their components (`g m` and `w dt` per component), then
     // one loop over the components: flat, so the compiler vectorises it.
     let (mut gm, mut s, mut keep) = ([R::ZERO; 3 * SPAN], [R::ZERO; 3 * SPAN], [false; 3 * SPAN]);
+    // A span whose particles share one mass and inverse mass (a uniform cloth's, but for its pins) has the same
+    // factors for every particle: spread once, for every span after it that shares them too. Spreading per
+    // particle was 44 % of this update on the 1024² cloth (2026-11-25). The same values: the same bits.
+    let mut spread: Option<(R, R)> = None;
     let mut k0 = 0;
     while k0 < n {
         let len = (n - k0).min(SPAN);
-        for k in 0..len {
-            let (mk, sk, kk) = (mass[k0 + k], w[k0 + k] * dt, w[k0 + k] == R::ZERO);
-            for c in 0..3 {
-                gm[3 * k + c] = g[c] * mk;
-                s[3 * k + c] = sk;
-                keep[3 * k + c] = kk;
+        let (wk, mk) = (&w[k0..k0 + len], &mass[k0..k0 + len]);
+        let (w0, m0) = (wk[0], mk[0]);
+        let shared = wk.iter().zip(mk).fold(true, |same, (&a, &b)| same & (a == w0) & (b == m0));
+        if shared {
+            if spread != Some((m0, w0)) {
+                let (sk, kk) = (w0 * dt, w0 == R::ZERO);
+                for k in 0..SPAN {
+                    for c in 0..3 {
+                        gm[3 * k + c] = g[c] * m0;
+                        s[3 * k + c] = sk;
+                        keep[3 * k + c] = kk;
+                    }
+                }
+                spread = Some((m0, w0));
+            }
+        } else {
+            spread = None;
+            for k in 0..len {
+                let (mk, sk, kk) = (mk[k], wk[k] * dt, wk[k] == R::ZERO);
+                for c in 0..3 {
+                    gm[3 * k + c] = g[c] * mk;
+                    s[3 * k + c] = sk;
+                    keep[3 * k + c] = kk;
+                }
             }
         }
         let r = 3 * k0..3 * (k0 + len);
