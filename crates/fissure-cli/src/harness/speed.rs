@@ -64,8 +64,8 @@ fn memory(m: &Model<f32>, s: &State<f32>) -> (f64, f64) {
             * 4.0
         + (m.particle_tris.start.capacity() + m.particle_tris.len.capacity() + m.particle_tris.cap.capacity()) as f64 * 4.0
         + (s.particle_q.capacity() + s.particle_qd.capacity()) as f64 * v
-        // The solver's second position/velocity buffers and per-block force sums (fused path).
-        + 3.0 * n * v;
+        // The solver's second position/velocity buffers (fused path; its blocks' force sums are per thread).
+        + 2.0 * n * v;
     let spring_arrays = m.spring_indices.capacity() as f64 * 8.0
         + (m.spring_rest_length.capacity()
             + m.spring_stiffness.capacity()
