@@ -207,10 +207,15 @@ impl<R: Real> ForceScratch<R> {
             );
             // The caps over a gas body's openings are one more piece (with `crosses_formed` they were formed beside
             // the springs; without gas there are none).
-            // SAFETY: `exec` runs each piece index once; the caps (if any) are the piece after the chunks.
-            par::exec(pool, nc + caps.count(), &|c| unsafe {
-                if c < nc { cross_chunk(c * par::CHUNK, pc.get(c), pv.get(c)) } else { caps.run(m, q) }
-            });
+            // SAFETY (both): `exec` runs each piece index once; the caps (if any) are the piece after the chunks.
+            // Without caps the closure has one kind of piece (see `ForceScratch::springs_and_crosses`).
+            if caps.count() == 0 {
+                par::exec(pool, nc, &|c| unsafe { cross_chunk(c * par::CHUNK, pc.get(c), pv.get(c)) });
+            } else {
+                par::exec(pool, nc + 1, &|c| unsafe {
+                    if c < nc { cross_chunk(c * par::CHUNK, pc.get(c), pv.get(c)) } else { caps.run(m, q) }
+                });
+            }
         }
         let sixth = R::from_f64(1.0 / 6.0);
         for b in 0..nb {
