@@ -51,17 +51,8 @@ pub(crate) struct ForceScratch<R: Real> {
     pub body_volume: Vec<R>,
     /// Net pressure of each body \[Pa\].
     pub body_pressure: Vec<R>,
-    /// `∂V/∂x` of the caps over the openings of gas bodies, per particle (empty without such openings) \[m^2\].
-    pub cap_g: Vec<R::V>,
-    /// Particles with a nonzero entry in `cap_g`: the openings' loops' particles, each once, in
-    /// index order (fixed between changes of the model).
-    pub cap_touched: Vec<u32>,
-    /// The openings of gas bodies as `[body, start, end)` into `cap_rim`, in the model's order.
-    pub cap_loops: Vec<[u32; 3]>,
-    /// The loops' particles, one loop after another.
-    pub cap_rim: Vec<u32>,
-    /// Each loop edge's term of its body's `6 V` (the edge from `cap_rim[k]` to the loop's next particle).
-    pub cap_terms: Vec<R>,
+    /// The caps over the openings of gas bodies (see [`pressure::Caps`]).
+    pub caps: pressure::Caps<R>,
     /// Whether the spring pass measures the fracture trigger's inputs (see [`crate::fracture::Measures`]): a
     /// model that can break, on the per-spring kernel.
     pub measuring: bool,
@@ -112,31 +103,7 @@ impl<R: Real> ForceScratch<R> {
         self.body_volume.resize(m.body_count(), R::ZERO);
         self.body_pressure.resize(m.body_count(), R::ZERO);
         self.vol_partials.resize(nt.div_ceil(par::CHUNK).max(1) * m.body_count(), R::ZERO);
-        let caps = m.has_pressure() && m.openings.iter().any(|o| m.body_gas_amount[o.body as usize] > R::ZERO);
-        let nc = if caps { m.particle_count() } else { 0 };
-        // Entries from an earlier model may be stale: clear what was written, then size.
-        for &i in &self.cap_touched {
-            if let Some(g) = self.cap_g.get_mut(i as usize) {
-                *g = R::V::ZERO;
-            }
-        }
-        self.cap_touched.clear();
-        self.cap_loops.clear();
-        self.cap_rim.clear();
-        self.cap_g.resize(nc, R::V::ZERO);
-        if caps {
-            // The caps' plan, laid out once per model (a split ball's 100 openings read through one flat list a
-            // step instead of a vector each, and their particles listed once, not once per opening a step).
-            for o in m.openings.iter().filter(|o| m.body_gas_amount[o.body as usize] > R::ZERO) {
-                let start = self.cap_rim.len() as u32;
-                self.cap_rim.extend_from_slice(&o.vertices);
-                self.cap_loops.push([o.body, start, self.cap_rim.len() as u32]);
-            }
-            self.cap_touched.extend_from_slice(&self.cap_rim);
-            self.cap_touched.sort_unstable();
-            self.cap_touched.dedup();
-        }
-        self.cap_terms.resize(self.cap_rim.len(), R::ZERO);
+        self.caps.plan(m);
         // The trigger's inputs cost a write per spring and a gather per particle: only for a model that can break,
         // and the loads only for one that can break by load. The run kernel measures strains alone (each spring's
         // in the block of its end 0): a grid cloth with load limits is scanned by the fracture pass itself.
@@ -198,13 +165,7 @@ impl<R: Real> ForceScratch<R> {
             let pool = par::is_pooled(m.tri_count());
             let (pc, pv) = (par::Pieces::new(&mut self.tri_cross, par::CHUNK), par::Pieces::new(vp, nb));
             let nc = pc.count();
-            let caps = pressure::CapPieces::new(
-                &self.cap_loops,
-                &self.cap_rim,
-                &self.cap_touched,
-                &mut self.cap_g,
-                &mut self.cap_terms,
-            );
+            let caps = pressure::CapPieces::new(&mut self.caps);
             // The caps over a gas body's openings are one more piece (with `crosses_formed` they were formed beside
             // the springs; without gas there are none).
             // SAFETY (both): `exec` runs each piece index once; the caps (if any) are the piece after the chunks.
@@ -329,11 +290,11 @@ pub(crate) fn pressure_share<R: Real>(m: &Model<R>, s: &ForceScratch<R>, i: usiz
 }
 
 /// The gas's push on particle `i` through the caps over its body's openings \[N\] (zero off their loops; only
-/// where `cap_g` is sized). Formed in the gathers rather than stored per particle by a serial pass after the
+/// where `caps.g` is sized). Formed in the gathers rather than stored per particle by a serial pass after the
 /// volumes: on a split ball with 100 openings that pass ran on one thread while the other waited.
 #[inline(always)]
 pub(crate) fn cap_force<R: Real>(m: &Model<R>, s: &ForceScratch<R>, i: usize) -> R::V {
-    s.cap_g[i] * s.body_pressure[m.particle_body[i] as usize]
+    s.caps.g[i] * s.body_pressure[m.particle_body[i] as usize]
 }
 
 /// The fracture load of particle `i` \[N\] (0 without a finite load limit): `|Σ ± spring_el + Σ pressure
@@ -362,7 +323,7 @@ pub(crate) fn particle_force<R: Real>(m: &Model<R>, s: &ForceScratch<R>, surface
     }
     if surface {
         f = add_corners(f, m, s, i);
-        if !s.cap_g.is_empty() {
+        if !s.caps.g.is_empty() {
             f += cap_force(m, s, i);
         }
     }

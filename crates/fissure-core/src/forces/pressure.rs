@@ -48,14 +48,62 @@ pub fn gas_energy(gas: f64, volume: f64, rest_volume: f64, external: f64) -> f64
     -gas * (clamped_volume(volume, rest_volume) / rest_volume).ln() + external * (volume - rest_volume)
 }
 
+/// The caps over the openings of gas bodies: a fan `(x_j, x_i, c)` over each loop edge `i -> j` from the loop's
+/// centroid `c`, closing the surface for the volume, and pushed on by the gas like any triangle (`c`'s share of
+/// the gradient goes equally to the loop's particles). The plan (`loops`, `rim`, `touched`) is laid out once per
+/// model by `ForceScratch::resize`; `g` and `terms` are formed each evaluation ([`CapPieces::run`]).
+#[derive(Clone, Debug, Default)]
+pub(crate) struct Caps<R: Real> {
+    /// `∂V/∂x` of the caps, per particle (empty without such openings) \[m^2\].
+    pub g: Vec<R::V>,
+    /// Particles with a nonzero entry in `g`: the loops' particles, each once, in index order.
+    pub touched: Vec<u32>,
+    /// The openings of gas bodies as `[body, start, end)` into `rim`, in the model's order.
+    pub loops: Vec<[u32; 3]>,
+    /// The loops' particles, one loop after another.
+    pub rim: Vec<u32>,
+    /// Each loop edge's term of its body's `6 V` (the edge from `rim[k]` to the loop's next particle).
+    pub terms: Vec<R>,
+}
+
+impl<R: Real> Caps<R> {
+    /// Lays out the plan for `m` (`g` sized and zero, only where `m` has openings of gas bodies). Entries an
+    /// earlier model wrote are cleared first.
+    pub(super) fn plan(&mut self, m: &Model<R>) {
+        let caps = m.has_pressure() && m.openings.iter().any(|o| m.body_gas_amount[o.body as usize] > R::ZERO);
+        for &i in &self.touched {
+            if let Some(g) = self.g.get_mut(i as usize) {
+                *g = R::V::ZERO;
+            }
+        }
+        self.touched.clear();
+        self.loops.clear();
+        self.rim.clear();
+        self.g.resize(if caps { m.particle_count() } else { 0 }, R::V::ZERO);
+        if caps {
+            // Laid out once per model: a split ball's 100 openings read through one flat list a step instead of a
+            // vector each, and their particles listed once, not once per opening a step.
+            for o in m.openings.iter().filter(|o| m.body_gas_amount[o.body as usize] > R::ZERO) {
+                let start = self.rim.len() as u32;
+                self.rim.extend_from_slice(&o.vertices);
+                self.loops.push([o.body, start, self.rim.len() as u32]);
+            }
+            self.touched.extend_from_slice(&self.rim);
+            self.touched.sort_unstable();
+            self.touched.dedup();
+        }
+        self.terms.resize(self.rim.len(), R::ZERO);
+    }
+}
+
 impl<R: Real> ForceScratch<R> {
     /// Adds the caps' volumes (their edges' terms of `6 V`, formed by [`CapPieces::run`]) to `body_volume`
     /// (still `6 V`, before the division), loop by loop and edge by edge in the model's order.
     pub(super) fn add_cap_volumes(&mut self, m: &Model<R>) {
-        for &[b, start, end] in &self.cap_loops {
+        for &[b, start, end] in &self.caps.loops {
             let b = b as usize;
             if m.body_gas_amount[b] > R::ZERO {
-                for &t in &self.cap_terms[start as usize..end as usize] {
+                for &t in &self.caps.terms[start as usize..end as usize] {
                     self.body_volume[b] += t;
                 }
             }
@@ -63,11 +111,9 @@ impl<R: Real> ForceScratch<R> {
     }
 }
 
-/// The caps over the openings of gas bodies, as one piece of a parallel pass (the surface pass's crosses, or
-/// the spring pass beside them): on the team a helper forms them while the caller forms crosses. Serial after
-/// the crosses, a split ball's 100 caps cost its step ~2 µs of one thread while the other waited (2,562 vertices,
-/// 2026-11-25). A cap is the fan `(x_j, x_i, c)` over each loop edge `i -> j` from the loop's centroid `c`;
-/// `c`'s share of the gradient goes equally to the loop's particles.
+/// The caps, formed as one piece of a parallel pass (the surface pass's crosses, or the spring pass beside them):
+/// on the team a helper forms them while the caller forms crosses. Serial after the crosses, a split ball's 100
+/// caps cost its step ~2 µs of one thread while the other waited (2,562 vertices, 2026-11-25).
 pub(crate) struct CapPieces<'a, R: Real> {
     loops: &'a [[u32; 3]],
     rim: &'a [u32],
@@ -77,15 +123,15 @@ pub(crate) struct CapPieces<'a, R: Real> {
 }
 
 impl<'a, R: Real> CapPieces<'a, R> {
-    pub(crate) fn new(
-        loops: &'a [[u32; 3]],
-        rim: &'a [u32],
-        touched: &'a [u32],
-        g: &'a mut [R::V],
-        terms: &'a mut [R],
-    ) -> Self {
-        let (ng, nt) = (g.len(), terms.len());
-        CapPieces { loops, rim, touched, g: crate::par::Pieces::new(g, ng), terms: crate::par::Pieces::new(terms, nt) }
+    pub(crate) fn new(caps: &'a mut Caps<R>) -> Self {
+        let (ng, nt) = (caps.g.len(), caps.terms.len());
+        CapPieces {
+            loops: &caps.loops,
+            rim: &caps.rim,
+            touched: &caps.touched,
+            g: crate::par::Pieces::new(&mut caps.g, ng),
+            terms: crate::par::Pieces::new(&mut caps.terms, nt),
+        }
     }
 
     /// Pieces of work: 1 with caps to form, else 0.
@@ -93,12 +139,12 @@ impl<'a, R: Real> CapPieces<'a, R> {
         usize::from(!self.loops.is_empty())
     }
 
-    /// Zeroes `cap_g` at the touched particles, then adds each cap's `∂(6V)/∂x / 6`, and writes each loop
+    /// Zeroes `g` at the touched particles, then adds each cap's `∂(6V)/∂x / 6`, and writes each loop
     /// edge's volume term (for [`ForceScratch::add_cap_volumes`]). Loops of bodies that leaked all their gas
     /// are skipped (their gradients stay 0).
     ///
     /// # Safety
-    /// Called once per pass (it writes the whole of `cap_g` and `cap_terms`), only when [`Self::count`] is 1.
+    /// Called once per pass (it writes the whole of `g` and `terms`), only when [`Self::count`] is 1.
     pub(crate) unsafe fn run(&self, m: &Model<R>, q: &[R::V]) {
         // SAFETY: one piece each, taken once (the caller's contract).
         let (g, terms) = unsafe { (self.g.get(0), self.terms.get(0)) };

@@ -55,13 +55,7 @@ impl<R: Real> ForceScratch<R> {
         let pc = par::Pieces::new(&mut self.tri_cross, par::CHUNK);
         let pv = par::Pieces::new(&mut self.vol_partials[..rows * nb], nb);
         let (nc, np) = (pc.count(), ps.count());
-        let caps = super::pressure::CapPieces::new(
-            &self.cap_loops,
-            &self.cap_rim,
-            &self.cap_touched,
-            &mut self.cap_g,
-            &mut self.cap_terms,
-        );
+        let caps = super::pressure::CapPieces::new(&mut self.caps);
         // SAFETY (both): `exec` runs each piece index once; triangle chunks, spring pieces and the caps (last: a
         // helper takes it first) are numbered apart.
         if caps.count() == 0 {

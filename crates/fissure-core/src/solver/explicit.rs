@@ -154,7 +154,7 @@ impl<R: Real> CpuSolver<R> {
                         if gas {
                             fe += share;
                         }
-                        if !f.cap_g.is_empty() {
+                        if !f.caps.g.is_empty() {
                             ft += cap_force(m, f, i);
                         }
                     }
@@ -260,7 +260,7 @@ impl<R: Real> CpuSolver<R> {
                     }
                     // With triangle terms (the case without them returned above).
                     let mut force = add_corners(m.gravity * m.particle_mass[i] + fs[k], m, f, i);
-                    if !f.cap_g.is_empty() {
+                    if !f.caps.g.is_empty() {
                         force += cap_force(m, f, i);
                     }
                     let v = qd[i] + force * (w * dt);

@@ -83,8 +83,8 @@ impl<R: Real> CpuSolver<R> {
                     gs[k] = acc * sixth;
                 }
             });
-            for &i in &self.f.cap_touched {
-                im.g[i as usize] += self.f.cap_g[i as usize];
+            for &i in &self.f.caps.touched {
+                im.g[i as usize] += self.f.caps.g[i as usize];
             }
             for b in 0..m.body_count() {
                 let gas = m.body_gas_amount[b];
