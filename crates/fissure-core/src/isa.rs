@@ -9,7 +9,8 @@
 //! `benches/RESULTS.md` (issue 15, 2026-11-24 sixth session) holds the measurements behind each choice.
 //!
 //! Each version is a small wrapper function of its own carrying `#[target_feature]` and calling the
-//! `#[inline(always)]` kernel, so the kernel is compiled inside it for those features. One generic helper taking
+//! `#[inline(always)]` kernel, so the kernel is compiled inside it for those features (`wide_kernel!` writes the
+//! wrappers and the dispatcher for a kernel). One generic helper taking
 //! the kernel as a closure (`fn on_avx512(f: impl FnOnce() -> T)`) was tried instead: the 128² cloth's step took
 //! 403–416 µs on one thread against 107–113 with the wrappers, since the kernel was no longer compiled for the
 //! helper's features. So the wrappers stay, one per kernel and instruction set.
@@ -81,3 +82,42 @@ pub(crate) fn avx512() -> bool {
 pub(crate) fn avx2() -> bool {
     LIMIT.load(Ordering::Relaxed) >= Isa::Avx2 as u8 && detected(Isa::Avx2)
 }
+
+/// Defines the dispatcher `$name`, which runs the `#[inline(always)]` kernel `$kernel` compiled for AVX-512 (F, VL)
+/// or AVX2 when the CPU has them and [`set_limit`] allows them, else for the baseline: the wrappers of the module
+/// docs, one per set, written once. `[$gen]`: the generic parameters; `[$targ]`: the kernel's generic arguments.
+macro_rules! wide_kernel {
+    (
+        $(#[$meta:meta])*
+        $vis:vis fn $name:ident[$($gen:tt)*]($($arg:ident: $ty:ty),* $(,)?) $(-> $ret:ty)? => $kernel:ident[$($targ:tt)*]
+    ) => {
+        $(#[$meta])*
+        #[inline]
+        #[allow(clippy::too_many_arguments)]
+        $vis fn $name<$($gen)*>($($arg: $ty),*) $(-> $ret)? {
+            #[cfg(target_arch = "x86_64")]
+            {
+                #[target_feature(enable = "avx512f,avx512vl")]
+                #[allow(clippy::too_many_arguments)]
+                fn avx512<$($gen)*>($($arg: $ty),*) $(-> $ret)? {
+                    $kernel::<$($targ)*>($($arg),*)
+                }
+                #[target_feature(enable = "avx2")]
+                #[allow(clippy::too_many_arguments)]
+                fn avx2<$($gen)*>($($arg: $ty),*) $(-> $ret)? {
+                    $kernel::<$($targ)*>($($arg),*)
+                }
+                if $crate::isa::avx512() {
+                    // SAFETY: the CPU supports AVX-512 F and VL, checked just above.
+                    return unsafe { avx512::<$($targ)*>($($arg),*) };
+                }
+                if $crate::isa::avx2() {
+                    // SAFETY: the CPU supports AVX2, checked just above.
+                    return unsafe { avx2::<$($targ)*>($($arg),*) };
+                }
+            }
+            $kernel::<$($targ)*>($($arg),*)
+        }
+    };
+}
+pub(crate) use wide_kernel;

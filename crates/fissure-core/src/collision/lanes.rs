@@ -32,37 +32,13 @@ pub(crate) fn all_closed_form(prepared: &[PreparedCollider]) -> bool {
     prepared.iter().all(|p| !matches!(p.quick, Quick::None))
 }
 
-/// Every lane of `b` against `prepared` (prepared from `colliders`, all of them, in order), sweeping until no lane
-/// is pushed (at most 3 sweeps; one with a single collider), as the collision pass's `sweeps` does particle by
-/// particle; `b.hit` tells which lanes were pushed. Only for [`all_closed_form`] colliders. Compiled for AVX-512
-/// or AVX2 when the CPU has them (the same bits: see `crate::isa`).
-pub(crate) fn resolve_lanes(prepared: &[PreparedCollider], colliders: &[Collider], b: &mut Lanes) {
-    #[cfg(target_arch = "x86_64")]
-    {
-        if crate::isa::avx512() {
-            // SAFETY: the CPU supports AVX-512 F and VL, checked just above.
-            unsafe { resolve_lanes_avx512(prepared, colliders, b) };
-            return;
-        }
-        if crate::isa::avx2() {
-            // SAFETY: the CPU supports AVX2, checked just above.
-            unsafe { resolve_lanes_avx2(prepared, colliders, b) };
-            return;
-        }
-    }
-    resolve_lanes_impl(prepared, colliders, b)
-}
-
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx512f,avx512vl")]
-fn resolve_lanes_avx512(prepared: &[PreparedCollider], colliders: &[Collider], b: &mut Lanes) {
-    resolve_lanes_impl(prepared, colliders, b)
-}
-
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2")]
-fn resolve_lanes_avx2(prepared: &[PreparedCollider], colliders: &[Collider], b: &mut Lanes) {
-    resolve_lanes_impl(prepared, colliders, b)
+crate::isa::wide_kernel! {
+    /// Every lane of `b` against `prepared` (prepared from `colliders`, all of them, in order), sweeping until no lane
+    /// is pushed (at most 3 sweeps; one with a single collider), as the collision pass's `sweeps` does particle by
+    /// particle; `b.hit` tells which lanes were pushed. Only for [`all_closed_form`] colliders. Compiled for AVX-512
+    /// or AVX2 when the CPU has them (the same bits: see `crate::isa`).
+    pub(crate) fn resolve_lanes[](prepared: &[PreparedCollider], colliders: &[Collider], b: &mut Lanes)
+        => resolve_lanes_impl[]
 }
 
 #[inline(always)]

@@ -143,63 +143,21 @@ impl RunBlocks {
     }
 }
 
-/// [`run_block`] compiled for AVX-512 (F and VL) or AVX2 when the CPU has them (detected once, cached by std),
-/// else for the baseline. Packed square roots and divisions are correctly rounded like the scalar ones and Rust
-/// never fuses multiply-adds on its own, so every version gives the same bits. AVX-512 is chosen per kernel by
-/// measurement (2026-11-24, AMD EPYC Zen 5, 2 threads): here the 128² cloth's step went 85–86 → 62 µs; the
-/// per-spring kernel (`spring_chunk_dispatch`) stays on AVX2, where 512-bit gathers made it slower.
-#[inline]
-pub(crate) fn run_block_dispatch<R: Real, const PROJECTED: bool>(
-    m: &Model<R>,
-    blocks: &RunBlocks,
-    q: &[R::V],
-    qd: &[R::V],
-    p0: usize,
-    block: &mut [R::V],
-    strain: Option<&StrainSink<'_, R>>,
-) {
-    #[cfg(target_arch = "x86_64")]
-    {
-        if crate::isa::avx512() {
-            // SAFETY: the CPU supports AVX-512 F and VL, checked just above.
-            unsafe { run_block_avx512::<R, PROJECTED>(m, blocks, q, qd, p0, block, strain) };
-            return;
-        }
-        if crate::isa::avx2() {
-            // SAFETY: the CPU supports AVX2, checked just above.
-            unsafe { run_block_avx2::<R, PROJECTED>(m, blocks, q, qd, p0, block, strain) };
-            return;
-        }
-    }
-    run_block::<R, PROJECTED>(m, blocks, q, qd, p0, block, strain)
-}
-
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx512f,avx512vl")]
-fn run_block_avx512<R: Real, const PROJECTED: bool>(
-    m: &Model<R>,
-    blocks: &RunBlocks,
-    q: &[R::V],
-    qd: &[R::V],
-    p0: usize,
-    block: &mut [R::V],
-    strain: Option<&StrainSink<'_, R>>,
-) {
-    run_block::<R, PROJECTED>(m, blocks, q, qd, p0, block, strain)
-}
-
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2")]
-fn run_block_avx2<R: Real, const PROJECTED: bool>(
-    m: &Model<R>,
-    blocks: &RunBlocks,
-    q: &[R::V],
-    qd: &[R::V],
-    p0: usize,
-    block: &mut [R::V],
-    strain: Option<&StrainSink<'_, R>>,
-) {
-    run_block::<R, PROJECTED>(m, blocks, q, qd, p0, block, strain)
+crate::isa::wide_kernel! {
+    /// [`run_block`] compiled for AVX-512 (F and VL) or AVX2 when the CPU has them (detected once, cached by std),
+    /// else for the baseline. Packed square roots and divisions are correctly rounded like the scalar ones and Rust
+    /// never fuses multiply-adds on its own, so every version gives the same bits. AVX-512 is chosen per kernel by
+    /// measurement (2026-11-24, AMD EPYC Zen 5, 2 threads): here the 128² cloth's step went 85–86 → 62 µs; the
+    /// per-spring kernel (`spring_chunk_dispatch`) stays on AVX2, where 512-bit gathers made it slower.
+    pub(crate) fn run_block_dispatch[R: Real, const PROJECTED: bool](
+        m: &Model<R>,
+        blocks: &RunBlocks,
+        q: &[R::V],
+        qd: &[R::V],
+        p0: usize,
+        block: &mut [R::V],
+        strain: Option<&StrainSink<'_, R>>,
+    ) => run_block[R, PROJECTED]
 }
 
 /// Spring-force sums of particles `p0 .. p0 + block.len()` into `block`; with `strain`, also the strains of the

@@ -252,69 +252,23 @@ pub(crate) enum Tris<'a, R: Real> {
     List(&'a [u32]),
 }
 
-/// Corner forces (pressure share + a third of drag and lift) of the triangles `tris` names into `out` (one per
-/// triangle), a span at a time: per-lane inputs gathered into per-component arrays, the wind sample and
-/// [`aero_components`] run as plain loops over them (packed square roots, divisions and the polynomial sines),
-/// results scattered back. Compiled for AVX-512 or AVX2 when the CPU has them (same bits: see `crate::isa`;
-/// AVX-512 measured on the 128² cloth in wind, harness `terms`, 2026-11-24: the surface stage 141–144 → 130–131
-/// µs).
-#[allow(clippy::too_many_arguments)]
-pub(crate) fn wind_chunk<R: Real>(
-    m: &Model<R>,
-    q: &[R::V],
-    qd: &[R::V],
-    tris: Tris<'_, R>,
-    pressure: &[R],
-    w: &PreparedWind<R>,
-    rho_half: R,
-    out: &mut [R::V],
-) {
-    #[cfg(target_arch = "x86_64")]
-    {
-        if crate::isa::avx512() {
-            // SAFETY: the CPU supports AVX-512 F and VL, checked just above.
-            unsafe { wind_chunk_avx512(m, q, qd, tris, pressure, w, rho_half, out) };
-            return;
-        }
-        if crate::isa::avx2() {
-            // SAFETY: the CPU supports AVX2, checked just above.
-            unsafe { wind_chunk_avx2(m, q, qd, tris, pressure, w, rho_half, out) };
-            return;
-        }
-    }
-    wind_chunk_impl(m, q, qd, tris, pressure, w, rho_half, out)
-}
-
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx512f,avx512vl")]
-#[allow(clippy::too_many_arguments)]
-fn wind_chunk_avx512<R: Real>(
-    m: &Model<R>,
-    q: &[R::V],
-    qd: &[R::V],
-    tris: Tris<'_, R>,
-    pressure: &[R],
-    w: &PreparedWind<R>,
-    rho_half: R,
-    out: &mut [R::V],
-) {
-    wind_chunk_impl(m, q, qd, tris, pressure, w, rho_half, out)
-}
-
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2")]
-#[allow(clippy::too_many_arguments)]
-fn wind_chunk_avx2<R: Real>(
-    m: &Model<R>,
-    q: &[R::V],
-    qd: &[R::V],
-    tris: Tris<'_, R>,
-    pressure: &[R],
-    w: &PreparedWind<R>,
-    rho_half: R,
-    out: &mut [R::V],
-) {
-    wind_chunk_impl(m, q, qd, tris, pressure, w, rho_half, out)
+crate::isa::wide_kernel! {
+    /// Corner forces (pressure share + a third of drag and lift) of the triangles `tris` names into `out` (one per
+    /// triangle), a span at a time: per-lane inputs gathered into per-component arrays, the wind sample and
+    /// [`aero_components`] run as plain loops over them (packed square roots, divisions and the polynomial sines),
+    /// results scattered back. Compiled for AVX-512 or AVX2 when the CPU has them (same bits: see `crate::isa`;
+    /// AVX-512 measured on the 128² cloth in wind, harness `terms`, 2026-11-24: the surface stage 141–144 → 130–131
+    /// µs).
+    pub(crate) fn wind_chunk[R: Real](
+        m: &Model<R>,
+        q: &[R::V],
+        qd: &[R::V],
+        tris: Tris<'_, R>,
+        pressure: &[R],
+        w: &PreparedWind<R>,
+        rho_half: R,
+        out: &mut [R::V],
+    ) => wind_chunk_impl[R]
 }
 
 #[allow(clippy::too_many_arguments)]

@@ -185,65 +185,18 @@ struct Coef<R> {
     third: R,
 }
 
-/// [`rows`] compiled for AVX-512 or AVX2 when the CPU has them (the same bits: see `crate::isa`).
-#[allow(clippy::too_many_arguments)]
-#[inline]
-fn rows_dispatch<R: Real>(
-    g: &TriGrid,
-    q: &[R::V],
-    qd: &[R::V],
-    mask: &[u8],
-    w: &PreparedWind<R>,
-    c: &Coef<R>,
-    j0: usize,
-    out: &mut [R::V],
-) {
-    #[cfg(target_arch = "x86_64")]
-    {
-        if crate::isa::avx512() {
-            // SAFETY: the CPU supports AVX-512 F and VL, checked just above.
-            unsafe { rows_avx512(g, q, qd, mask, w, c, j0, out) };
-            return;
-        }
-        if crate::isa::avx2() {
-            // SAFETY: the CPU supports AVX2, checked just above.
-            unsafe { rows_avx2(g, q, qd, mask, w, c, j0, out) };
-            return;
-        }
-    }
-    rows(g, q, qd, mask, w, c, j0, out)
-}
-
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx512f,avx512vl")]
-#[allow(clippy::too_many_arguments)]
-fn rows_avx512<R: Real>(
-    g: &TriGrid,
-    q: &[R::V],
-    qd: &[R::V],
-    mask: &[u8],
-    w: &PreparedWind<R>,
-    c: &Coef<R>,
-    j0: usize,
-    out: &mut [R::V],
-) {
-    rows(g, q, qd, mask, w, c, j0, out)
-}
-
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2")]
-#[allow(clippy::too_many_arguments)]
-fn rows_avx2<R: Real>(
-    g: &TriGrid,
-    q: &[R::V],
-    qd: &[R::V],
-    mask: &[u8],
-    w: &PreparedWind<R>,
-    c: &Coef<R>,
-    j0: usize,
-    out: &mut [R::V],
-) {
-    rows(g, q, qd, mask, w, c, j0, out)
+crate::isa::wide_kernel! {
+    /// [`rows`] compiled for AVX-512 or AVX2 when the CPU has them (the same bits: see `crate::isa`).
+    fn rows_dispatch[R: Real](
+        g: &TriGrid,
+        q: &[R::V],
+        qd: &[R::V],
+        mask: &[u8],
+        w: &PreparedWind<R>,
+        c: &Coef<R>,
+        j0: usize,
+        out: &mut [R::V],
+    ) => rows[R]
 }
 
 /// Positions and velocities of a row's particles in a tile, per component.

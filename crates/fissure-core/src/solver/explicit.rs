@@ -436,63 +436,18 @@ impl<R: Real> CpuSolver<R> {
     }
 }
 
-/// [`update`] compiled for AVX-512 or AVX2 when the CPU has them (the same bits; see `crate::isa`).
-#[allow(clippy::too_many_arguments)]
-#[inline]
-fn update_dispatch<R: Real>(
-    m: &Model<R>,
-    q: &[R::V],
-    qd: &[R::V],
-    p0: usize,
-    fs: &[R::V],
-    qs: &mut [R::V],
-    vs: &mut [R::V],
-    dt: R,
-) -> bool {
-    #[cfg(target_arch = "x86_64")]
-    {
-        if crate::isa::avx512() {
-            // SAFETY: the CPU supports AVX-512 F and VL, checked just above.
-            return unsafe { update_avx512(m, q, qd, p0, fs, qs, vs, dt) };
-        }
-        if crate::isa::avx2() {
-            // SAFETY: the CPU supports AVX2, checked just above.
-            return unsafe { update_avx2(m, q, qd, p0, fs, qs, vs, dt) };
-        }
-    }
-    update(m, q, qd, p0, fs, qs, vs, dt)
-}
-
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx512f,avx512vl")]
-#[allow(clippy::too_many_arguments)]
-fn update_avx512<R: Real>(
-    m: &Model<R>,
-    q: &[R::V],
-    qd: &[R::V],
-    p0: usize,
-    fs: &[R::V],
-    qs: &mut [R::V],
-    vs: &mut [R::V],
-    dt: R,
-) -> bool {
-    update(m, q, qd, p0, fs, qs, vs, dt)
-}
-
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2")]
-#[allow(clippy::too_many_arguments)]
-fn update_avx2<R: Real>(
-    m: &Model<R>,
-    q: &[R::V],
-    qd: &[R::V],
-    p0: usize,
-    fs: &[R::V],
-    qs: &mut [R::V],
-    vs: &mut [R::V],
-    dt: R,
-) -> bool {
-    update(m, q, qd, p0, fs, qs, vs, dt)
+crate::isa::wide_kernel! {
+    /// [`update`] compiled for AVX-512 or AVX2 when the CPU has them (the same bits; see `crate::isa`).
+    fn update_dispatch[R: Real](
+        m: &Model<R>,
+        q: &[R::V],
+        qd: &[R::V],
+        p0: usize,
+        fs: &[R::V],
+        qs: &mut [R::V],
+        vs: &mut [R::V],
+        dt: R,
+    ) -> bool => update[R]
 }
 
 /// Symplectic Euler's update of particles `p0 .. p0 + fs.len()` from their spring forces `fs` (no other force but
