@@ -55,6 +55,11 @@ pub(crate) struct RunBlocks {
 pub(crate) struct SharedParameters {
     /// Per run: the spring whose parameters most of the run's springs share, or [`NONE`] (each spring its own).
     reference: Vec<u32>,
+    /// Per run: its reference spring's rest length, stiffness and damping (as `f64`, exact for `f32` and `f64`
+    /// alike), side by side in run order. Read from the model's per-spring arrays they were three cache misses
+    /// a run in each block that walks it (the reference lies mid-run, in 25 MB arrays on the 1024² cloth):
+    /// `perf` put a tenth of the run kernel's samples on those loads (2026-11-26, one thread).
+    values: Vec<[f64; 3]>,
     /// `odd_start[r]..odd_start[r + 1]`: run `r`'s slice of `odd`.
     odd_start: Vec<u32>,
     /// The offsets in their run (ascending) of the springs whose parameters differ from the run's reference.
@@ -70,7 +75,8 @@ impl SharedParameters {
     pub(crate) fn of_model<R: Real>(m: &Model<R>) -> Self {
         let (rest, ks, kd) = (&m.spring_rest_length, &m.spring_stiffness, &m.spring_damping);
         let key = |s: usize| [rest[s], ks[s], kd[s]].map(|x| x.to_f64().to_bits());
-        let mut out = SharedParameters { reference: Vec::new(), odd_start: vec![0], odd: Vec::new() };
+        let mut out =
+            SharedParameters { reference: Vec::new(), values: Vec::new(), odd_start: vec![0], odd: Vec::new() };
         for r in &m.spring_runs {
             let (first, len) = (r.first as usize, r.len as usize);
             let mut reference = NONE;
@@ -88,6 +94,12 @@ impl SharedParameters {
                 out.odd.truncate(from);
             }
             out.reference.push(reference);
+            out.values.push(if reference == NONE {
+                [0.0; 3]
+            } else {
+                let r = reference as usize;
+                [rest[r], ks[r], kd[r]].map(|x| x.to_f64())
+            });
             out.odd_start.push(out.odd.len() as u32);
         }
         out
@@ -186,8 +198,8 @@ fn run_block<R: Real, const PROJECTED: bool>(
         let reference = sp.reference[ri as usize] as usize;
         let odd = &sp.odd[sp.odd_start[ri as usize] as usize..sp.odd_start[ri as usize + 1] as usize];
         if reference != NONE as usize {
-            for (lanes, v) in shared.iter_mut().zip([rest[reference], ks[reference], kd[reference]]) {
-                lanes.fill(v);
+            for (lanes, &v) in shared.iter_mut().zip(&sp.values[ri as usize]) {
+                lanes.fill(R::from_f64(v));
             }
         }
         // Spring indices k of this run with end 0 (a) or end 1 (b) in the block.
