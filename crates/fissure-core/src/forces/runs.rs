@@ -192,6 +192,11 @@ fn run_block<R: Real, const PROJECTED: bool>(
     // The run's shared parameters broadcast over a span's lanes (filled once per run).
     let mut shared = [[R::ZERO; SPAN]; 3];
     let sp = &blocks.shared;
+    // Whether this block runs on AVX-512 (the dispatcher's own test): the spans' one-loop form (`span_forces`).
+    #[cfg(target_arch = "x86_64")]
+    let one_loop = crate::isa::avx512();
+    #[cfg(not(target_arch = "x86_64"))]
+    let one_loop = false;
     for &ri in blocks.of(p0) {
         let r = &m.spring_runs[ri as usize];
         let (i0, j0, len, s0) = (r.i as usize, r.j as usize, r.len as usize, r.first as usize);
@@ -238,6 +243,7 @@ fn run_block<R: Real, const PROJECTED: bool>(
                     kds,
                     &mut buf[..n],
                     strain.is_some(),
+                    one_loop,
                 );
                 // End 0 of springs k in [max(k0, a0), min(k1, a1)) lies in the block: add.
                 let (c0, c1) = (k0.max(a0), k1.min(a1));
