@@ -80,7 +80,9 @@ impl HashGrid {
     }
 
     /// Calls `f` on every point whose cell meets the box `[lo, hi]`, each once, in cell order (all points when
-    /// the box spans more cells than the grid has buckets).
+    /// the box spans more cells than the grid has buckets). Inlined into each search, so that the search's visit
+    /// is compiled into the loop over the bucket's points rather than called through a pointer per point.
+    #[inline(always)]
     pub fn query(&self, lo: DVec3, hi: DVec3, mut f: impl FnMut(u32)) {
         let (a, b) = (self.cell(lo), self.cell(hi));
         let span = |k: usize| (b[k] - a[k] + 1).max(0) as u128;

@@ -198,20 +198,15 @@ impl<R: Real> ContactScratch<R> {
             edges_again.extend(el.edge_ids.iter().copied().filter(|&e| emask[e as usize]));
         }
         let (grid, egrid) = (&self.grid, &self.egrid);
-        // Visits what an element of a body searches: the other bodies' grid, and the big body's unless it is
-        // the searcher's own.
-        let search = |[rest, big]: &[HashGrid; 2], from_big: bool, lo: DVec3, hi: DVec3, mut f: &mut dyn FnMut(u32)| {
-            rest.query(lo, hi, &mut f);
-            if !from_big {
-                big.query(lo, hi, f);
-            }
-        };
         let r2 = radius * radius;
         // Vertex `v` at `p` against triangle `t` (corners `tv` at `c`, search box `bx`), from either side of a
         // search: a pair if allowed and closer than `radius`.
         let vt_near = |v: u32, p: DVec3, t: u32, tv: [u32; 3], c: [DVec3; 3], (lo, hi): (DVec3, DVec3)| {
             // The box first (one load; most points a query visits are outside it).
             if p.cmplt(lo).any() || p.cmpgt(hi).any() {
+                return false;
+            }
+            if plane_apart(p, c[0], (c[1] - c[0]).cross(c[2] - c[0]), radius) {
                 return false;
             }
             if tv.iter().any(|&u| same_origin(m, u, v)) || !allowed(m.particle_body[v as usize], m.tri_body[t as usize])
@@ -232,7 +227,7 @@ impl<R: Real> ContactScratch<R> {
                     continue;
                 }
                 let from = out.len();
-                search(grid, in_big(m.tri_body[t as usize]), bx.0, bx.1, &mut |k| {
+                search(grid, in_big(m.tri_body[t as usize]), bx.0, bx.1, |k| {
                     let v = parts[k as usize];
                     if vt_near(v, x(v), t, tv, c, bx) {
                         out.push([v, t]);
@@ -255,7 +250,7 @@ impl<R: Real> ContactScratch<R> {
                     if !in_grid(v, p) {
                         continue;
                     }
-                    search(tgrid, in_big(m.particle_body[v as usize]), p - reach, p + reach, &mut |k| {
+                    search(tgrid, in_big(m.particle_body[v as usize]), p - reach, p + reach, |k| {
                         let t = el.tris[k as usize];
                         if tmask[t as usize] {
                             return;
@@ -278,6 +273,7 @@ impl<R: Real> ContactScratch<R> {
                 let e = e as usize;
                 let [a0, a1] = edges[e];
                 let (p, q) = (x(a0), x(a1));
+                let (c1, h1) = (0.5 * (p + q), 0.5 * (q - p));
                 let [elo, ehi] = eboxes[e];
                 let (lo, hi) = (elo - reach, ehi + reach);
                 let (near_lo, near_hi) = (elo - radius, ehi + radius);
@@ -286,7 +282,7 @@ impl<R: Real> ContactScratch<R> {
                     continue;
                 }
                 let from = out.len();
-                search(egrid, in_big(eb), lo, hi, &mut |f| {
+                search(egrid, in_big(eb), lo, hi, |f| {
                     let f = f as usize;
                     if f == e || (f < e && !both) {
                         return;
@@ -298,6 +294,9 @@ impl<R: Real> ContactScratch<R> {
                     }
                     let [b0, b1] = edges[f];
                     let (r, s) = (x(b0), x(b1));
+                    if segments_apart(c1, h1, 0.5 * (r + s), 0.5 * (s - r), radius) {
+                        return;
+                    }
                     if [a0, a1].iter().any(|&a| same_origin(m, a, b0) || same_origin(m, a, b1))
                         || !allowed(eb, m.particle_body[b0 as usize])
                     {
@@ -324,6 +323,18 @@ impl<R: Real> ContactScratch<R> {
             self.vt = vt;
             self.ee = ee;
         }
+    }
+}
+
+/// Visits what an element of a body searches: the other bodies' grid (`rest`), and the big body's unless it is
+/// the searcher's own. Generic over the visit, so that each search's closure is compiled into the grid's query
+/// loop (as a `&mut dyn FnMut` it was an indirect call per point visited).
+#[inline(always)]
+fn search(grids: &[HashGrid; 2], from_big: bool, lo: DVec3, hi: DVec3, mut f: impl FnMut(u32)) {
+    let [rest, big] = grids;
+    rest.query(lo, hi, &mut f);
+    if !from_big {
+        big.query(lo, hi, f);
     }
 }
 

@@ -5,7 +5,7 @@
 mod lists;
 
 use super::*;
-use crate::contact::geometry::{closest_on_segments, closest_on_triangle};
+use crate::contact::geometry::{closest_on_segments, closest_on_triangle, plane_apart, segments_apart};
 use crate::contact::grid::HashGrid;
 use crate::contact::{Elements, GAMMA, RELAX, same_origin};
 use glam::DVec3;
@@ -195,7 +195,7 @@ impl<R: Real> ContactScratch<R> {
             let tv = m.tri_indices[t as usize];
             let [a, b, cc] = tv.map(x);
             let p = x(v);
-            if apart(p, p, a.min(b).min(cc), a.max(b).max(cc)) {
+            if apart(p, p, a.min(b).min(cc), a.max(b).max(cc)) || plane_apart(p, a, (b - a).cross(cc - a), r) {
                 return None;
             }
             let w = closest_on_triangle(p, a, b, cc);
@@ -205,7 +205,9 @@ impl<R: Real> ContactScratch<R> {
         let ee_pair = |&[e, f]: &[u32; 2]| {
             let ([a0, a1], [b0, b1]) = (edges[e as usize], edges[f as usize]);
             let (p, q, u, w) = (x(a0), x(a1), x(b0), x(b1));
-            if apart(p.min(q), p.max(q), u.min(w), u.max(w)) {
+            if apart(p.min(q), p.max(q), u.min(w), u.max(w))
+                || segments_apart(0.5 * (p + q), 0.5 * (q - p), 0.5 * (u + w), 0.5 * (w - u), r)
+            {
                 return None;
             }
             let (s, t) = closest_on_segments(p, q, u, w);
