@@ -123,6 +123,47 @@ pub fn triangles_cross(t: [DVec3; 3], u: [DVec3; 3]) -> bool {
 mod tests {
     use super::*;
 
+    /// The lower bounds never call a pair apart that the exact closest points put within `r`, and they do
+    /// reject most far pairs (so a test of them can fail both ways): random segments and point–triangle pairs
+    /// in a box, including parallel and in-plane ones, against radii around their distances.
+    #[test]
+    fn lower_bounds_never_reject_a_pair_within_reach() {
+        let mut seed = 11u64;
+        let mut rnd = || {
+            seed = seed.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            (seed >> 11) as f64 / (1u64 << 53) as f64 * 2.0 - 1.0
+        };
+        let (mut rejected, mut far) = (0, 0);
+        for k in 0..20_000 {
+            let mut v = || DVec3::new(rnd(), rnd(), rnd());
+            let (p1, q1, p2) = (v(), v(), v());
+            // Every fourth pair parallel, every eighth in the plane z = 0 as well.
+            let mut q2 = if k % 4 == 0 { p2 + (q1 - p1) * 0.7 } else { v() };
+            let (mut p2, mut p1, mut q1) = (p2, p1, q1);
+            if k % 8 == 0 {
+                for x in [&mut p1, &mut q1, &mut p2, &mut q2] {
+                    x.z = 0.0;
+                }
+            }
+            let (s, t) = closest_on_segments(p1, q1, p2, q2);
+            let d = ((p1 + s * (q1 - p1)) - (p2 + t * (q2 - p2))).length();
+            let r = d * (0.25 + 1.75 * (rnd() * 0.5 + 0.5));
+            let apart = segments_apart(0.5 * (p1 + q1), 0.5 * (q1 - p1), 0.5 * (p2 + q2), 0.5 * (q2 - p2), r);
+            assert!(!apart || d >= r, "segments {d} apart rejected at r = {r}");
+            far += (d >= 2.0 * r) as u32;
+            rejected += (apart && d >= 2.0 * r) as u32;
+            let (a, b, c, x) = (p1, q1, p2, q2 + DVec3::new(0.0, 0.0, rnd()));
+            let w = closest_on_triangle(x, a, b, c);
+            let dt = (x - (w[0] * a + w[1] * b + w[2] * c)).length();
+            let r = dt * (0.5 + 1.5 * (rnd() * 0.5 + 0.5));
+            assert!(!plane_apart(x, a, (b - a).cross(c - a), r) || dt >= r, "a point {dt} away rejected at r = {r}");
+        }
+        assert!(
+            far > 1000 && rejected * 4 > far,
+            "the segment bound rejected {rejected} of {far} pairs at least 2 r apart"
+        );
+    }
+
     #[test]
     fn closest_points_match_brute_force_sampling() {
         let (a, b, c) = (DVec3::new(0.0, 0.0, 0.0), DVec3::new(1.0, 0.0, 0.0), DVec3::new(0.2, 1.0, 0.3));
