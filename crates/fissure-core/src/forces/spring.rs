@@ -381,8 +381,8 @@ impl<R: Real> SpanScratch<R> {
 /// AVX-512 (`one_loop`) one loop forms each lane from them and stores its force, which LLVM packs with strided
 /// loads and stores; elsewhere that loop packs poorly, and they are transposed into per-component arrays, the
 /// maths runs on those (plain loops over `[R; SPAN]` that LLVM turns into packed code, square roots and
-/// divisions included), and the result is transposed back. Lanes past `out.len()` up to a multiple of [`LANES`] hold stale values from an
-/// earlier span: computed, never used. The maths is [`force_components`], lane by lane; `measure`: also each
+/// divisions included), and the result is transposed back. Lanes past `out.len()` up to a multiple of
+/// [`LANES`] hold stale values from an earlier span: computed, never used. The maths is [`force_components`], lane by lane; `measure`: also each
 /// lane's length, into `t.l` (from [`force_parts`]: the strain is formed from it only where it is stored, see
 /// [`StrainSink::store`]).
 #[allow(clippy::too_many_arguments)]

@@ -199,14 +199,12 @@ impl<R: Real> ContactScratch<R> {
         }
         let (grid, egrid) = (&self.grid, &self.egrid);
         let r2 = radius * radius;
-        // Vertex `v` at `p` against triangle `t` (corners `tv` at `c`, search box `bx`), from either side of a
-        // search: a pair if allowed and closer than `radius`.
-        let vt_near = |v: u32, p: DVec3, t: u32, tv: [u32; 3], c: [DVec3; 3], (lo, hi): (DVec3, DVec3)| {
-            // The box first (one load; most points a query visits are outside it).
-            if p.cmplt(lo).any() || p.cmpgt(hi).any() {
-                return false;
-            }
-            if plane_apart(p, c[0], (c[1] - c[0]).cross(c[2] - c[0]), radius) {
+        // Vertex `v` at `p` against triangle `t` (corners `tv` at `c`, normal `n`, search box `bx`), from either
+        // side of a search: a pair if allowed and closer than `radius`.
+        let normal = |c: [DVec3; 3]| (c[1] - c[0]).cross(c[2] - c[0]);
+        let vt_near = |v: u32, p: DVec3, t: u32, tv: [u32; 3], c: [DVec3; 3], n: DVec3, (lo, hi): (DVec3, DVec3)| {
+            // The box first (one load; most points a query visits are outside it), then the plane.
+            if p.cmplt(lo).any() || p.cmpgt(hi).any() || plane_apart(p, c[0], n, radius) {
                 return false;
             }
             if tv.iter().any(|&u| same_origin(m, u, v)) || !allowed(m.particle_body[v as usize], m.tri_body[t as usize])
@@ -226,10 +224,11 @@ impl<R: Real> ContactScratch<R> {
                 if !searched(t, bx) {
                     continue;
                 }
+                let n = normal(c);
                 let from = out.len();
                 search(grid, in_big(m.tri_body[t as usize]), bx.0, bx.1, |k| {
                     let v = parts[k as usize];
-                    if vt_near(v, x(v), t, tv, c, bx) {
+                    if vt_near(v, x(v), t, tv, c, n, bx) {
                         out.push([v, t]);
                     }
                 });
@@ -257,7 +256,7 @@ impl<R: Real> ContactScratch<R> {
                         }
                         let tv = m.tri_indices[t as usize];
                         let c = tv.map(x);
-                        if vt_near(v, p, t, tv, c, tri_box(c)) {
+                        if vt_near(v, p, t, tv, c, normal(c), tri_box(c)) {
                             out.push([v, t]);
                         }
                     });
