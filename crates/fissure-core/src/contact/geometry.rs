@@ -124,8 +124,9 @@ mod tests {
     use super::*;
 
     /// The lower bounds never call a pair apart that the exact closest points put within `r`, and the segments'
-    /// bound does reject over a quarter of the pairs at least `2 r` apart (so the test can fail both ways): random segments and point–triangle pairs
-    /// in a box, including parallel and in-plane ones, against radii around their distances.
+    /// bound does reject over a quarter of the pairs at least `2 r` apart (so the test can fail both ways): random
+    /// segments and point–triangle pairs in a box, including parallel and in-plane ones, against radii around
+    /// their distances.
     #[test]
     fn lower_bounds_never_reject_a_pair_within_reach() {
         let mut seed = 11u64;

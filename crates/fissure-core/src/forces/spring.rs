@@ -382,9 +382,9 @@ impl<R: Real> SpanScratch<R> {
 /// loads and stores; elsewhere that loop packs poorly, and they are transposed into per-component arrays, the
 /// maths runs on those (plain loops over `[R; SPAN]` that LLVM turns into packed code, square roots and
 /// divisions included), and the result is transposed back. Lanes past `out.len()` up to a multiple of
-/// [`LANES`] hold stale values from an earlier span: computed, never used. The maths is [`force_components`], lane by lane; `measure`: also each
-/// lane's length, into `t.l` (from [`force_parts`]: the strain is formed from it only where it is stored, see
-/// [`StrainSink::store`]).
+/// [`LANES`] hold stale values from an earlier span: computed, never used. The maths is [`force_components`],
+/// lane by lane; `measure`: also each lane's length, into `t.l` (from [`force_parts`]: the strain is formed from
+/// it only where it is stored, see [`StrainSink::store`]).
 #[allow(clippy::too_many_arguments)]
 #[inline(always)]
 pub(super) fn span_forces<R: Real, const PROJECTED: bool>(
@@ -406,12 +406,12 @@ pub(super) fn span_forces<R: Real, const PROJECTED: bool>(
         // `one_loop` (the caller runs on AVX-512): the span's lanes in one loop, from the ends' 3-vectors to the
         // force's (LLVM packs its strided loads and stores with AVX-512's two-source permutes): no round trip
         // through the per-component arrays below. The same operations on the same values, so the same bits.
-        // Measured 2026-11-26 on one thread (AMD EPYC, Zen 5), the 1024² cloth's step 8.8–9.3 → 7.9–8.4 ms and
-        // the 128² 107–108 → 100–105 µs on AVX-512; on AVX2 the same loop was slower (10.8–11.0 → 12.3–12.6 ms,
-        // 155–158 → 181–186 µs), so AVX2 and the baseline keep the arrays. Measuring spans keep them too (they
-        // store lengths), and so do spans whose parameters must be copied. Adding the lanes' forces into the
-        // block inside this loop (rather than from `out` afterwards) was tried: LLVM no longer packed it, 4×
-        // slower.
+        // Measured 2026-11-26 on one thread (AMD EPYC, Zen 5), the 1024² cloth's step 8.8–9.3 → 7.9–8.4 ms
+        // and the 128² 107–108 → 100–105 µs on AVX-512; on AVX2 the same loop was slower (10.8–11.0 →
+        // 12.3–12.6 ms, 155–158 → 181–186 µs), so AVX2 and the baseline keep the arrays. Measuring spans keep
+        // them too (they store lengths), and so do spans whose parameters must be copied. Adding the lanes'
+        // forces into the block inside this loop (rather than from `out` afterwards) was tried: LLVM no longer
+        // packed it, 4× slower.
         let (r, s, d) = (&rest[..n], &ks[..n], &kd[..n]);
         for k in 0..n {
             let f = force_components::<R, PROJECTED>(

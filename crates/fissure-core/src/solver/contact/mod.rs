@@ -194,13 +194,13 @@ impl<R: Real> ContactScratch<R> {
         let vt_pair = |&[v, t]: &[u32; 2]| {
             let tv = m.tri_indices[t as usize];
             let [a, b, cc] = tv.map(x);
-            let p = x(v);
-            if apart(p, p, a.min(b).min(cc), a.max(b).max(cc)) || plane_apart(p, a, (b - a).cross(cc - a), r) {
+            let (p, n) = (x(v), (b - a).cross(cc - a));
+            if apart(p, p, a.min(b).min(cc), a.max(b).max(cc)) || plane_apart(p, a, n, r) {
                 return None;
             }
             let w = closest_on_triangle(p, a, b, cc);
             let b2 = [m.particle_body[v as usize], m.tri_body[t as usize]];
-            pair([v, tv[0], tv[1], tv[2]], [1.0, -w[0], -w[1], -w[2]], (b - a).cross(cc - a), b2)
+            pair([v, tv[0], tv[1], tv[2]], [1.0, -w[0], -w[1], -w[2]], n, b2)
         };
         let ee_pair = |&[e, f]: &[u32; 2]| {
             let ([a0, a1], [b0, b1]) = (edges[e as usize], edges[f as usize]);
@@ -211,9 +211,8 @@ impl<R: Real> ContactScratch<R> {
                 return None;
             }
             let (s, t) = closest_on_segments(p, q, u, w);
-            let fallback = (x(a1) - x(a0)).cross(x(b1) - x(b0));
             let b2 = [m.particle_body[a0 as usize], m.particle_body[b0 as usize]];
-            pair([a0, a1, b0, b1], [1.0 - s, s, t - 1.0, -t], fallback, b2)
+            pair([a0, a1, b0, b1], [1.0 - s, s, t - 1.0, -t], (q - p).cross(w - u), b2)
         };
         // Vertex–triangle pairs, then edge–edge pairs, each in their list's order.
         self.pairs.clear();
