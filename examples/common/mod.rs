@@ -64,7 +64,7 @@ impl Pictures {
         state: &State<f32>,
         overlay: &[String],
     ) -> Result<(), Box<dyn std::error::Error>> {
-        if k % self.every == 0 {
+        if k.is_multiple_of(self.every) {
             self.frames.capture(model, state, overlay)?;
         }
         Ok(())

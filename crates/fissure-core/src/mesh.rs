@@ -398,11 +398,11 @@ impl Mesh {
             'search: for dx in -1..=1 {
                 for dy in -1..=1 {
                     for dz in -1..=1 {
-                        if let Some(list) = grid.get(&[k[0] + dx, k[1] + dy, k[2] + dz]) {
-                            if let Some(&j) = list.iter().find(|&&j| (out[j as usize] - p).length() <= tolerance) {
-                                found = Some(j);
-                                break 'search;
-                            }
+                        if let Some(list) = grid.get(&[k[0] + dx, k[1] + dy, k[2] + dz])
+                            && let Some(&j) = list.iter().find(|&&j| (out[j as usize] - p).length() <= tolerance)
+                        {
+                            found = Some(j);
+                            break 'search;
                         }
                     }
                 }

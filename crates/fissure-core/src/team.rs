@@ -312,7 +312,7 @@ fn helper(sh: &Shared) {
             continue;
         }
         spins += 1;
-        if spins % 1024 != 0 {
+        if !spins.is_multiple_of(1024) {
             std::hint::spin_loop();
             continue;
         }

@@ -35,7 +35,7 @@ fn a_cut_cloth_shows_both_lips_and_not_its_border() {
     let cracks = crack_edges(&m.tri_indices, &m.particle_origin);
     let border = boundary_edges(&m.tri_indices);
     assert!(cracks.iter().all(|e| border.contains(e)), "crack edges are boundary edges");
-    assert!(cracks.len() >= 4 && cracks.len() % 2 == 0, "two lips: {cracks:?}");
+    assert!(cracks.len() >= 4 && cracks.len().is_multiple_of(2), "two lips: {cracks:?}");
     // Every boundary edge is either on the cloth's outer border (32 edges) or on the slit, never both.
     assert_eq!(border.len(), cracks.len() + 32, "{cracks:?}");
 }

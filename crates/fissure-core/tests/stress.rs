@@ -34,9 +34,9 @@ fn log_uniform(rng: &mut Rng, lo: f64, hi: f64) -> f64 {
 
 fn case(seed: u64) -> Case {
     let mut rng = Rng(seed.wrapping_mul(0x2545F4914F6CDD1D) ^ 0xF155);
-    let ball = rng.next_u64() % 2 == 0;
+    let ball = rng.next_u64().is_multiple_of(2);
     let integrator = Integrator::ALL[(rng.next_u64() % 4) as usize];
-    let storm = rng.next_u64() % 3 == 0;
+    let storm = rng.next_u64().is_multiple_of(3);
     let fracture = match rng.next_u64() % 3 {
         0 => None,
         1 => Some(Breakable {
@@ -46,7 +46,7 @@ fn case(seed: u64) -> Case {
         _ => Some(Breakable {
             strain_limit: log_uniform(&mut rng, 0.005, 0.5),
             load_limit: log_uniform(&mut rng, 1e-3, 10.0),
-            sealed: rng.next_u64() % 2 == 0,
+            sealed: rng.next_u64().is_multiple_of(2),
             ..Default::default()
         }),
     };
@@ -54,11 +54,11 @@ fn case(seed: u64) -> Case {
         seed,
         ball,
         k: log_uniform(&mut rng, 1e2, 1e6),
-        pressure: if ball && rng.next_u64() % 4 != 0 { log_uniform(&mut rng, 10.0, 1e5) } else { 0.0 },
+        pressure: if ball && !rng.next_u64().is_multiple_of(4) { log_uniform(&mut rng, 10.0, 1e5) } else { 0.0 },
         dt: log_uniform(&mut rng, 1e-5, 1e-2),
         integrator,
-        guard: rng.next_u64() % 2 == 0,
-        colliders: rng.next_u64() % 2 == 0,
+        guard: rng.next_u64().is_multiple_of(2),
+        colliders: rng.next_u64().is_multiple_of(2),
         fracture,
         kick: log_uniform(&mut rng, 1e-3, 50.0),
     }
@@ -84,7 +84,7 @@ fn build(c: &Case) -> Result<Model<f64>, ModelError> {
             ..Default::default()
         };
         b.add_cloth_grid(n, n, 0.05, |p| DVec3::new(p.x, 0.6, p.y), &opts)?;
-        if c.seed % 3 == 0 {
+        if c.seed.is_multiple_of(3) {
             b.wind(WindField { velocity: DVec3::new(0.0, 0.0, 8.0), ..Default::default() }).unwrap();
         }
     }

@@ -146,14 +146,14 @@ pub fn run(r: &mut Report) -> Result<(), String> {
         ));
         largest = Some((n, floor / t));
     }
-    if let Some((n, frac)) = largest {
-        if n >= 1024 {
-            r.target(
-                "1024² cloth step reaches half the bandwidth floor's speed".to_string(),
-                frac >= 0.5,
-                format!("{:.2} of the floor", frac),
-            );
-        }
+    if let Some((n, frac)) = largest
+        && n >= 1024
+    {
+        r.target(
+            "1024² cloth step reaches half the bandwidth floor's speed".to_string(),
+            frac >= 0.5,
+            format!("{:.2} of the floor", frac),
+        );
     }
     // Thread scaling.
     let scale_sizes: Vec<usize> = if quick { vec![64] } else { vec![128, 1024] };

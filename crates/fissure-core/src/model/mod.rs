@@ -212,7 +212,7 @@ impl TriGrid {
     pub fn quad(&self, i: u32, j: u32) -> [[u32; 3]; 2] {
         let v = |a: u32, b: u32| self.base + b * self.nx + a;
         let (p00, p10, p01, p11) = (v(i, j), v(i + 1, j), v(i, j + 1), v(i + 1, j + 1));
-        if (i + j) % 2 == 0 { [[p00, p01, p11], [p00, p11, p10]] } else { [[p00, p01, p10], [p10, p01, p11]] }
+        if (i + j).is_multiple_of(2) { [[p00, p01, p11], [p00, p11, p10]] } else { [[p00, p01, p10], [p10, p01, p11]] }
     }
 }
 
