@@ -9,6 +9,8 @@
 
 pub mod pressure;
 pub(crate) mod runs;
+#[cfg(target_arch = "x86_64")]
+mod runs_avx512;
 pub mod spring;
 pub mod wind;
 pub(crate) mod wind_grid;

@@ -1,5 +1,6 @@
 //! The run kernel: spring forces summed per block of particles over a model's [`crate::model::SpringRun`]s (cloth
-//! grids), on contiguous slices, vectorised ([`super::spring::span_forces`]).
+//! grids), on contiguous slices, vectorised ([`super::spring::span_forces`]; in `f32` on AVX-512 by hand, with the
+//! sums added in the same loop where the order allows: `super::runs_avx512`).
 
 use super::spring::{SPAN, SpanScratch, StrainSink, span_forces};
 use crate::model::Model;
@@ -197,6 +198,8 @@ fn run_block<R: Real, const PROJECTED: bool>(
     let one_loop = crate::isa::avx512();
     #[cfg(not(target_arch = "x86_64"))]
     let one_loop = false;
+    // `f32` on AVX-512, not measuring: the spans by hand (`super::runs_avx512`), adding into the block as they go.
+    let by_hand = one_loop && strain.is_none() && std::any::TypeId::of::<R>() == std::any::TypeId::of::<f32>();
     for &ri in blocks.of(p0) {
         let r = &m.spring_runs[ri as usize];
         let (i0, j0, len, s0) = (r.i as usize, r.j as usize, r.len as usize, r.first as usize);
@@ -232,33 +235,65 @@ fn run_block<R: Real, const PROJECTED: bool>(
                 } else {
                     (&rest[s0 + k0..], &ks[s0 + k0..], &kd[s0 + k0..])
                 };
-                span_forces::<R, PROJECTED>(
-                    &mut scratch,
-                    qi,
-                    qj,
-                    vi,
-                    vj,
-                    rs,
-                    kss,
-                    kds,
-                    &mut buf[..n],
-                    strain.is_some(),
-                    one_loop,
-                );
+                // The span's end 0 all in the block: its forces added as they are formed (`by_hand`).
+                let added = by_hand && a0 <= k0 && k1 <= a1;
+                // And its end 1 subtracted likewise where each particle meets only one of the span's springs (the
+                // ends a span apart or more): the same order of additions per particle as the passes below.
+                let subtracted = added && b0 <= k0 && k1 <= b1 && i0.abs_diff(j0) >= n;
+                #[cfg(target_arch = "x86_64")]
+                let by_hand = by_hand && {
+                    let (at, bt) = (i0 + k0 - p0, j0 + k0 - p0);
+                    let (add, sub) = if subtracted {
+                        let (x, y) = block.split_at_mut(at.max(bt));
+                        let (low, high) = (&mut x[at.min(bt)..at.min(bt) + n], &mut y[..n]);
+                        if at < bt { (Some(low), Some(high)) } else { (Some(high), Some(low)) }
+                    } else {
+                        (added.then(|| &mut block[at..at + n]), None)
+                    };
+                    let (add, sub) = (add.map(|b| as_f32_mut(R::flat_mut(b))), sub.map(|b| as_f32_mut(R::flat_mut(b))));
+                    // SAFETY: AVX-512 (`one_loop`); `span` checks the bounds.
+                    unsafe {
+                        super::runs_avx512::span::<PROJECTED>(
+                            as_f32(R::flat(q)),
+                            as_f32(R::flat(qd)),
+                            (i0 + k0, j0 + k0),
+                            (as_f32(rs), as_f32(kss), as_f32(kds)),
+                            n,
+                            // The buffer only for the passes below.
+                            [(!subtracted).then(|| as_f32_mut(R::flat_mut(&mut buf[..n]))), add, sub],
+                        )
+                    };
+                    true
+                };
+                if !by_hand {
+                    span_forces::<R, PROJECTED>(
+                        &mut scratch,
+                        qi,
+                        qj,
+                        vi,
+                        vj,
+                        rs,
+                        kss,
+                        kds,
+                        &mut buf[..n],
+                        strain.is_some(),
+                        one_loop,
+                    );
+                }
                 // End 0 of springs k in [max(k0, a0), min(k1, a1)) lies in the block: add.
                 let (c0, c1) = (k0.max(a0), k1.min(a1));
                 if let Some(out) = strain.filter(|_| c0 < c1) {
                     // SAFETY: these springs' end 0 lies in this block and in no other (see `StrainSink`).
                     unsafe { out.store(s0 + c0, &scratch.l[c0 - k0..c1 - k0], &rest[s0 + c0..s0 + c1]) };
                 }
-                if c0 < c1 {
+                if c0 < c1 && !added {
                     let dst = &mut block[i0 + c0 - p0..i0 + c1 - p0];
                     for (d, f) in dst.iter_mut().zip(&buf[c0 - k0..c1 - k0]) {
                         *d += *f;
                     }
                 }
                 let (c0, c1) = (k0.max(b0), k1.min(b1));
-                if c0 < c1 {
+                if c0 < c1 && !subtracted {
                     let dst = &mut block[j0 + c0 - p0..j0 + c1 - p0];
                     for (d, f) in dst.iter_mut().zip(&buf[c0 - k0..c1 - k0]) {
                         *d -= *f;
@@ -268,6 +303,24 @@ fn run_block<R: Real, const PROJECTED: bool>(
             }
         }
     }
+}
+
+/// `x` as `f32` where `R` is `f32` (the caller checks; otherwise it panics).
+#[cfg(target_arch = "x86_64")]
+#[inline(always)]
+fn as_f32<R: Real>(x: &[R]) -> &[f32] {
+    assert_eq!(std::any::TypeId::of::<R>(), std::any::TypeId::of::<f32>());
+    // SAFETY: `R` is `f32` (asserted): the same type.
+    unsafe { std::slice::from_raw_parts(x.as_ptr().cast::<f32>(), x.len()) }
+}
+
+/// [`as_f32`], mutable.
+#[cfg(target_arch = "x86_64")]
+#[inline(always)]
+fn as_f32_mut<R: Real>(x: &mut [R]) -> &mut [f32] {
+    assert_eq!(std::any::TypeId::of::<R>(), std::any::TypeId::of::<f32>());
+    // SAFETY: `R` is `f32` (asserted): the same type.
+    unsafe { std::slice::from_raw_parts_mut(x.as_mut_ptr().cast::<f32>(), x.len()) }
 }
 
 #[cfg(test)]

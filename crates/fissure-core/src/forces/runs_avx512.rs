@@ -1,0 +1,348 @@
+//! The run kernel's spans in `f32` on AVX-512 ([`span`]), written with its intrinsics: each chunk of 16 springs
+//! reads its ends as 3-vectors, splits their differences into components with two-source permutes, forms the
+//! forces per component, joins them back into 3-vectors, and adds them into the block's sums in the same loop
+//! where the order of additions allows it (see [`span`]).
+//!
+//! Why by hand (`perf annotate`, the 1024² benchmark cloth on one thread, 2026-11-26, AMD EPYC Zen 5):
+//! - LLVM's packing of the portable loop (`super::spring::span_forces`) took ~30 permutes per 16 springs: it split
+//!   the squares of the differences again instead of reusing the split differences. Here: 18.
+//! - An add into the block inside the portable loop stopped LLVM packing it (4× slower), so every force went
+//!   through a buffer and two more passes (+f at end 0, -f at end 1). Here most go straight into the block.
+//! - A span's last chunk of fewer than 16 lanes (every row of a 128² cloth has 127 springs) runs with masked loads
+//!   and stores, not lane by lane.
+//!
+//! Measured against the portable loop, alternated, the same bits (a probe stepping the benchmark cloth, `f32`):
+//! 1024² one thread 7.9–8.3 → 6.5–6.7 ms a step, two threads 4.0–4.1 → 3.35 ms; 128² 52 → 42 µs; 32² 10.1 → 8.8 µs.
+//! With only the kernel's maths rewritten (forces through the buffer as before) the 1024² step did not change:
+//! its permutes were not what bound it.
+//!
+//! The same bits as the portable loop: each lane's maths is [`super::spring::force_components`]' in its order (no
+//! fused multiply-adds; packed square roots and divisions round correctly like the scalar ones), and each
+//! particle's additions come in the portable pass's order (see [`span`]).
+//!
+//! Tried and not kept (2026-11-26): every chunk masked (masked stores are slow on these cores: the 1024² step
+//! 1.3× slower); both ends added in the loop for every span, walking the chunks backwards where the order needs it
+//! (each chunk's loads of the block overlapped the previous chunk's stores a particle apart, and the
+//! store-to-load forwarding failed at every one: 1.3× slower); the block's window transposed into per-component
+//! arrays first, spans reading it as contiguous lanes (the same bits; 1.15× slower: the transposition's ~20 % of
+//! the kernel and the per-component adds' ~28 % cost more than the permutes they saved).
+
+use std::arch::x86_64::*;
+
+/// The forces of one span of `n` springs of a run into `out` where given (3-vectors as flat components, `3n` values): lanes `k = 0 .. n`
+/// join particle `i + k` (end 0) and `j + k` (end 1). `rest`, `ks`, `kd`: per lane, at least `n`. `q`, `qd`:
+/// 3-vectors as flat components. Each lane's force is also added into `add[k]` (the block's sums at the span's
+/// ends 0) and subtracted from `sub[k]` (at its ends 1) where given.
+///
+/// The portable pass adds all of a span's forces at its ends 0, then subtracts them at its ends 1. A particle
+/// that is end 0 of one of the span's springs and end 1 of another gets its add first; the caller gives `sub`
+/// only when the two ends lie at least a span apart (no particle is both), and `add` only when the whole span's
+/// ends 0 lie in the block, so the additions per particle keep that order.
+///
+/// # Safety
+/// The CPU has AVX-512 F and VL (the bounds are checked here).
+#[target_feature(enable = "avx512f,avx512vl")]
+pub(super) unsafe fn span<const PROJECTED: bool>(
+    q: &[f32],
+    qd: &[f32],
+    (i, j): (usize, usize),
+    (rest, ks, kd): (&[f32], &[f32], &[f32]),
+    n: usize,
+    [out, add, sub]: [Option<&mut [f32]>; 3],
+) {
+    let (mut out, mut add, mut sub) = (out, add, sub);
+    assert!([&out, &add, &sub].iter().all(|a| a.as_ref().is_none_or(|a| a.len() == 3 * n)));
+    assert!(3 * (i.max(j) + n) <= q.len().min(qd.len()) && rest.len().min(ks.len()).min(kd.len()) >= n);
+    // Chunks of 16 lanes; the last may have fewer (a row of a 128² cloth is 127 springs): masked loads and stores
+    // for it alone (masked stores are slow on AMD's cores: masking every chunk made the 1024² cloth's step 1.3×
+    // slower, 2026-11-26).
+    let whole = n / 16;
+    for c in 0..whole {
+        // SAFETY: lanes 16c .. 16c + 16 <= n, within the bounds asserted above.
+        unsafe {
+            chunk::<PROJECTED, true>(
+                q,
+                qd,
+                (i, j),
+                (rest, ks, kd),
+                [out.as_deref_mut(), add.as_deref_mut(), sub.as_deref_mut()],
+                16 * c,
+                16,
+            )
+        };
+    }
+    if n > 16 * whole {
+        // SAFETY: lanes 16 whole .. n, within the bounds asserted above.
+        unsafe {
+            chunk::<PROJECTED, false>(q, qd, (i, j), (rest, ks, kd), [out, add, sub], 16 * whole, n - 16 * whole)
+        };
+    }
+}
+
+/// Lanes `k .. k + m` (`m <= 16`; `WHOLE`: `m = 16`, unmasked) of [`span`].
+#[inline(always)]
+#[allow(clippy::too_many_arguments)]
+unsafe fn chunk<const PROJECTED: bool, const WHOLE: bool>(
+    q: &[f32],
+    qd: &[f32],
+    (i, j): (usize, usize),
+    (rest, ks, kd): (&[f32], &[f32], &[f32]),
+    [out, add, sub]: [Option<&mut [f32]>; 3],
+    k: usize,
+    m: usize,
+) {
+    let lanes = (((1u32 << m) - 1) & 0xffff) as u16;
+    let thirds: [u16; 3] = std::array::from_fn(|r| {
+        let e = (3 * m).saturating_sub(16 * r).min(16);
+        (((1u32 << e) - 1) & 0xffff) as u16
+    });
+    let mask = (!WHOLE).then_some(thirds);
+    // SAFETY: the caller's bounds; masked-off elements are not read or written.
+    unsafe {
+        let d = split(sub3(load3(q, 3 * (j + k), mask), load3(q, 3 * (i + k), mask)));
+        let w = split(sub3(load3(qd, 3 * (j + k), mask), load3(qd, 3 * (i + k), mask)));
+        let p = |s: &[f32]| {
+            if WHOLE { _mm512_loadu_ps(s.as_ptr().add(k)) } else { _mm512_maskz_loadu_ps(lanes, s.as_ptr().add(k)) }
+        };
+        let f = join(force::<PROJECTED>(d, w, p(rest), p(ks), p(kd)));
+        if let Some(out) = out {
+            store3(out, 3 * k, f, mask);
+        }
+        if let Some(add) = add {
+            let s = load3(add, 3 * k, mask);
+            let sum = [_mm512_add_ps(s[0], f[0]), _mm512_add_ps(s[1], f[1]), _mm512_add_ps(s[2], f[2])];
+            store3(add, 3 * k, sum, mask);
+        }
+        if let Some(sub) = sub {
+            store3(sub, 3 * k, sub3(load3(sub, 3 * k, mask), f), mask);
+        }
+    }
+}
+
+/// 16 3-vectors from `s[at ..]`, as three registers of interleaved components; with `mask`, only the elements it
+/// selects in each register (the others zero).
+#[inline(always)]
+unsafe fn load3(s: &[f32], at: usize, mask: Option<[u16; 3]>) -> [__m512; 3] {
+    // SAFETY: the caller's bounds; masked-off elements are not read (`wrapping_add`: a pointer past the slice is
+    // never dereferenced).
+    unsafe {
+        let p = s.as_ptr().add(at);
+        match mask {
+            None => [_mm512_loadu_ps(p), _mm512_loadu_ps(p.add(16)), _mm512_loadu_ps(p.add(32))],
+            Some(m) => [
+                _mm512_maskz_loadu_ps(m[0], p),
+                _mm512_maskz_loadu_ps(m[1], p.wrapping_add(16)),
+                _mm512_maskz_loadu_ps(m[2], p.wrapping_add(32)),
+            ],
+        }
+    }
+}
+
+/// Stores three registers of interleaved 3-vectors at `s[at ..]`; with `mask`, only the elements it selects.
+#[inline(always)]
+unsafe fn store3(s: &mut [f32], at: usize, v: [__m512; 3], mask: Option<[u16; 3]>) {
+    // SAFETY: the caller's bounds; masked-off elements are not written.
+    unsafe {
+        let p = s.as_mut_ptr().add(at);
+        match mask {
+            None => {
+                _mm512_storeu_ps(p, v[0]);
+                _mm512_storeu_ps(p.add(16), v[1]);
+                _mm512_storeu_ps(p.add(32), v[2]);
+            }
+            Some(m) => {
+                _mm512_mask_storeu_ps(p, m[0], v[0]);
+                _mm512_mask_storeu_ps(p.wrapping_add(16), m[1], v[1]);
+                _mm512_mask_storeu_ps(p.wrapping_add(32), m[2], v[2]);
+            }
+        }
+    }
+}
+
+#[inline(always)]
+unsafe fn sub3(x: [__m512; 3], y: [__m512; 3]) -> [__m512; 3] {
+    // SAFETY: AVX-512 F (the caller's target features).
+    unsafe { [_mm512_sub_ps(x[0], y[0]), _mm512_sub_ps(x[1], y[1]), _mm512_sub_ps(x[2], y[2])] }
+}
+
+/// The permutes' index tables: for component (or register) `c`, the first and the second permute's.
+const SPLIT: [[[i32; 16]; 2]; 3] = split_tables();
+const JOIN: [[[i32; 16]; 2]; 3] = join_tables();
+
+/// [`split`]'s: component `c` of vector `e` is element `3e + c` of the 48, taken from the first two registers
+/// while under 32 (first permute), then from the third (second permute, which keeps the first's elements).
+const fn split_tables() -> [[[i32; 16]; 2]; 3] {
+    let mut t = [[[0; 16]; 2]; 3];
+    let mut c = 0;
+    while c < 3 {
+        let mut e = 0;
+        while e < 16 {
+            let g = 3 * e + c as i32;
+            if g < 32 {
+                t[c][0][e as usize] = g;
+                t[c][1][e as usize] = e;
+            } else {
+                t[c][1][e as usize] = 16 + g - 32;
+            }
+            e += 1;
+        }
+        c += 1;
+    }
+    t
+}
+
+/// [`join`]'s: element `e` of register `r` is element `g = 16r + e` of the 48, component `g % 3` of vector `g / 3`:
+/// the first permute takes components 0 and 1, the second component 2 (keeping the first's elements).
+const fn join_tables() -> [[[i32; 16]; 2]; 3] {
+    let mut t = [[[0; 16]; 2]; 3];
+    let mut r = 0;
+    while r < 3 {
+        let mut e = 0;
+        while e < 16 {
+            let g = 16 * r as i32 + e;
+            let (comp, vec) = (g % 3, g / 3);
+            t[r][0][e as usize] = if comp == 0 { vec } else { 16 + vec };
+            t[r][1][e as usize] = if comp == 2 { 16 + vec } else { e };
+            e += 1;
+        }
+        r += 1;
+    }
+    t
+}
+
+/// An index table as a register.
+#[inline(always)]
+unsafe fn index(t: &[i32; 16]) -> __m512i {
+    // SAFETY: 16 values.
+    unsafe { _mm512_loadu_si512(t.as_ptr().cast()) }
+}
+
+/// Interleaved 3-vectors (element `e` of the 48 is component `e % 3` of vector `e / 3`) → one register a component.
+#[inline(always)]
+unsafe fn split(v: [__m512; 3]) -> [__m512; 3] {
+    // SAFETY: AVX-512 F (the caller's target features).
+    unsafe {
+        std::array::from_fn(|c| {
+            let t = _mm512_permutex2var_ps(v[0], index(&SPLIT[c][0]), v[1]);
+            _mm512_permutex2var_ps(t, index(&SPLIT[c][1]), v[2])
+        })
+    }
+}
+
+/// The inverse of [`split`].
+#[inline(always)]
+unsafe fn join(f: [__m512; 3]) -> [__m512; 3] {
+    // SAFETY: AVX-512 F (the caller's target features).
+    unsafe {
+        std::array::from_fn(|r| {
+            let t = _mm512_permutex2var_ps(f[0], index(&JOIN[r][0]), f[1]);
+            _mm512_permutex2var_ps(t, index(&JOIN[r][1]), f[2])
+        })
+    }
+}
+
+/// [`super::spring::force_components`] on 16 lanes: the same operations in the same order.
+#[inline(always)]
+unsafe fn force<const PROJECTED: bool>(
+    d: [__m512; 3],
+    w: [__m512; 3],
+    rest: __m512,
+    ks: __m512,
+    kd: __m512,
+) -> [__m512; 3] {
+    // SAFETY: AVX-512 F (the caller's target features).
+    unsafe {
+        let l2 = _mm512_add_ps(
+            _mm512_add_ps(_mm512_mul_ps(d[0], d[0]), _mm512_mul_ps(d[1], d[1])),
+            _mm512_mul_ps(d[2], d[2]),
+        );
+        let l = _mm512_sqrt_ps(l2);
+        let inv =
+            _mm512_maskz_div_ps(_mm512_cmp_ps_mask::<_CMP_GT_OQ>(l2, _mm512_setzero_ps()), _mm512_set1_ps(1.0), l);
+        let u = [_mm512_mul_ps(d[0], inv), _mm512_mul_ps(d[1], inv), _mm512_mul_ps(d[2], inv)];
+        let el = _mm512_mul_ps(ks, _mm512_sub_ps(l, rest));
+        if PROJECTED {
+            let dot = _mm512_add_ps(
+                _mm512_add_ps(_mm512_mul_ps(w[0], u[0]), _mm512_mul_ps(w[1], u[1])),
+                _mm512_mul_ps(w[2], u[2]),
+            );
+            let mag = _mm512_add_ps(el, _mm512_mul_ps(kd, dot));
+            [_mm512_mul_ps(u[0], mag), _mm512_mul_ps(u[1], mag), _mm512_mul_ps(u[2], mag)]
+        } else {
+            std::array::from_fn(|c| _mm512_add_ps(_mm512_mul_ps(u[c], el), _mm512_mul_ps(w[c], kd)))
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::span;
+    use crate::forces::spring::force_components;
+
+    /// Every span length from 1 to 70 (whole chunks, a masked last chunk, both), ends 1, 2 and 75 apart, both
+    /// damping models: each lane's force is [`force_components`]' bit for bit, added and subtracted exactly where
+    /// asked, and nothing outside the span's lanes is written.
+    #[test]
+    fn spans_give_the_scalar_bits_and_touch_only_their_lanes() {
+        if !crate::isa::avx512() {
+            eprintln!("no AVX-512 on this CPU: the by-hand spans are not used here (the portable loop is)");
+            return;
+        }
+        let mut seed = 11u64;
+        let mut next = || {
+            seed = seed.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            ((seed >> 40) as f32 / (1u64 << 24) as f32) - 0.5
+        };
+        let len = 160;
+        let q: Vec<f32> = (0..3 * len).map(|_| next()).collect();
+        let qd: Vec<f32> = (0..3 * len).map(|_| 10.0 * next()).collect();
+        let p: Vec<[f32; 3]> = (0..len).map(|_| [0.3 + next().abs(), 100.0 + next(), 0.1 + next().abs()]).collect();
+        let (rest, ks, kd): (Vec<f32>, Vec<f32>, Vec<f32>) =
+            (p.iter().map(|x| x[0]).collect(), p.iter().map(|x| x[1]).collect(), p.iter().map(|x| x[2]).collect());
+        let check = |projected: bool, n: usize, off: usize| {
+            let (i, j) = (3, 3 + off);
+            let guard = 5;
+            let mut out = vec![f32::NAN; 3 * (n + guard)];
+            let base: Vec<f32> = (0..3 * (n + guard)).map(|k| k as f32 * 0.25).collect();
+            let (mut add, mut sub) = (base.clone(), base.clone());
+            let args = (&q[..], &qd[..], (i, j), (&rest[..], &ks[..], &kd[..]));
+            // SAFETY: AVX-512 (checked above).
+            unsafe {
+                let o = [Some(&mut out[..3 * n]), Some(&mut add[..3 * n]), Some(&mut sub[..3 * n])];
+                if projected {
+                    span::<true>(args.0, args.1, args.2, args.3, n, o)
+                } else {
+                    span::<false>(args.0, args.1, args.2, args.3, n, o)
+                }
+            };
+            for k in 0..n {
+                let e = |v: &[f32], p: usize| [v[3 * p], v[3 * p + 1], v[3 * p + 2]];
+                let (qi, qj, vi, vj) = (e(&q, i + k), e(&q, j + k), e(&qd, i + k), e(&qd, j + k));
+                let d = [qj[0] - qi[0], qj[1] - qi[1], qj[2] - qi[2]];
+                let w = [vj[0] - vi[0], vj[1] - vi[1], vj[2] - vi[2]];
+                let f = if projected {
+                    force_components::<f32, true>(d, w, rest[k], ks[k], kd[k])
+                } else {
+                    force_components::<f32, false>(d, w, rest[k], ks[k], kd[k])
+                };
+                for c in 0..3 {
+                    let at = 3 * k + c;
+                    assert_eq!(out[at].to_bits(), f[c].to_bits(), "n {n}, offset {off}, lane {k}, component {c}");
+                    assert_eq!(add[at].to_bits(), (base[at] + f[c]).to_bits(), "add: n {n}, lane {k}");
+                    assert_eq!(sub[at].to_bits(), (base[at] - f[c]).to_bits(), "sub: n {n}, lane {k}");
+                }
+            }
+            assert!(out[3 * n..].iter().all(|x| x.is_nan()), "written past the span (n {n})");
+            assert_eq!(&add[3 * n..], &base[3 * n..], "added past the span (n {n})");
+            assert_eq!(&sub[3 * n..], &base[3 * n..], "subtracted past the span (n {n})");
+            assert!(out[..3 * n].iter().any(|x| *x != 0.0), "forces formed (n {n})");
+        };
+        for projected in [true, false] {
+            for n in 1..=70 {
+                for off in [1, 2, 75] {
+                    check(projected, n, off);
+                }
+            }
+        }
+    }
+}
