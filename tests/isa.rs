@@ -1,5 +1,6 @@
 //! Every instruction set the vector kernels can run on (`fissure::isa`) gives the same bits: the cloth in wind
-//! (the wind pass), the ball drop (the per-spring kernel), a grid cloth under symplectic Euler (the fused
+//! (the wind pass), the tearing cloth (the run kernel measuring its strains), the ball drop (the per-spring
+//! kernel), a grid cloth under symplectic Euler (the fused
 //! grid-run spring kernel and the update after it) and under implicit Euler (the solver's runs), each run once
 //! per set this CPU has, their final states compared bit for bit. One test in its own binary: the cap it sets holds for the whole process.
 
@@ -35,8 +36,10 @@ fn every_instruction_set_gives_the_same_bits() {
     let sets = isa::available();
     assert_eq!(sets[0], Isa::Baseline);
     type Run = (&'static str, fn() -> Vec<u32>);
-    let runs: [Run; 4] = [
+    let runs: [Run; 5] = [
         ("cloth_wind.toml", || scene("cloth_wind.toml")),
+        // A breakable grid: the run kernel measures its springs' strains every step.
+        ("cloth_tear.toml", || scene("cloth_tear.toml")),
         ("ball_drop.toml", || scene("ball_drop.toml")),
         ("24² cloth, symplectic Euler", || grid_cloth(Integrator::SymplecticEuler, 0.1, 2e-4)),
         ("24² cloth, implicit Euler", || grid_cloth(Integrator::ImplicitEuler, 0.25, 1.0 / 60.0)),

@@ -198,8 +198,8 @@ fn run_block<R: Real, const PROJECTED: bool>(
     let one_loop = crate::isa::avx512();
     #[cfg(not(target_arch = "x86_64"))]
     let one_loop = false;
-    // `f32` on AVX-512, not measuring: the spans by hand (`super::runs_avx512`), adding into the block as they go.
-    let by_hand = one_loop && strain.is_none() && std::any::TypeId::of::<R>() == std::any::TypeId::of::<f32>();
+    // `f32` on AVX-512: the spans by hand (`super::runs_avx512`), adding into the block as they go.
+    let by_hand = one_loop && std::any::TypeId::of::<R>() == std::any::TypeId::of::<f32>();
     for &ri in blocks.of(p0) {
         let r = &m.spring_runs[ri as usize];
         let (i0, j0, len, s0) = (r.i as usize, r.j as usize, r.len as usize, r.first as usize);
@@ -261,6 +261,7 @@ fn run_block<R: Real, const PROJECTED: bool>(
                             n,
                             // The buffer only for the passes below.
                             [(!subtracted).then(|| as_f32_mut(R::flat_mut(&mut buf[..n]))), add, sub],
+                            strain.is_some().then(|| as_f32_mut(&mut scratch.l[..n])),
                         )
                     };
                     true

@@ -32,7 +32,8 @@ use std::arch::x86_64::*;
 /// The forces of one span of `n` springs of a run into `out` where given (3-vectors as flat components, `3n` values): lanes `k = 0 .. n`
 /// join particle `i + k` (end 0) and `j + k` (end 1). `rest`, `ks`, `kd`: per lane, at least `n`. `q`, `qd`:
 /// 3-vectors as flat components. Each lane's force is also added into `add[k]` (the block's sums at the span's
-/// ends 0) and subtracted from `sub[k]` (at its ends 1) where given.
+/// ends 0) and subtracted from `sub[k]` (at its ends 1) where given, and its length stored in `lens[k]` (a
+/// measuring pass's: the strains are formed from them, `StrainSink::store`).
 ///
 /// The portable pass adds all of a span's forces at its ends 0, then subtracts them at its ends 1. A particle
 /// that is end 0 of one of the span's springs and end 1 of another gets its add first; the caller gives `sub`
@@ -49,9 +50,11 @@ pub(super) unsafe fn span<const PROJECTED: bool>(
     (rest, ks, kd): (&[f32], &[f32], &[f32]),
     n: usize,
     [out, add, sub]: [Option<&mut [f32]>; 3],
+    lens: Option<&mut [f32]>,
 ) {
-    let (mut out, mut add, mut sub) = (out, add, sub);
+    let (mut out, mut add, mut sub, mut lens) = (out, add, sub, lens);
     assert!([&out, &add, &sub].iter().all(|a| a.as_ref().is_none_or(|a| a.len() == 3 * n)));
+    assert!(lens.as_ref().is_none_or(|l| l.len() == n));
     assert!(3 * (i.max(j) + n) <= q.len().min(qd.len()) && rest.len().min(ks.len()).min(kd.len()) >= n);
     // Chunks of 16 lanes; the last may have fewer (a row of a 128² cloth is 127 springs): masked loads and stores
     // for it alone (masked stores are slow on AMD's cores: masking every chunk made the 1024² cloth's step 1.3×
@@ -66,6 +69,7 @@ pub(super) unsafe fn span<const PROJECTED: bool>(
                 (i, j),
                 (rest, ks, kd),
                 [out.as_deref_mut(), add.as_deref_mut(), sub.as_deref_mut()],
+                lens.as_deref_mut(),
                 16 * c,
                 16,
             )
@@ -74,7 +78,7 @@ pub(super) unsafe fn span<const PROJECTED: bool>(
     if n > 16 * whole {
         // SAFETY: lanes 16 whole .. n, within the bounds asserted above.
         unsafe {
-            chunk::<PROJECTED, false>(q, qd, (i, j), (rest, ks, kd), [out, add, sub], 16 * whole, n - 16 * whole)
+            chunk::<PROJECTED, false>(q, qd, (i, j), (rest, ks, kd), [out, add, sub], lens, 16 * whole, n - 16 * whole)
         };
     }
 }
@@ -88,6 +92,7 @@ unsafe fn chunk<const PROJECTED: bool, const WHOLE: bool>(
     (i, j): (usize, usize),
     (rest, ks, kd): (&[f32], &[f32], &[f32]),
     [out, add, sub]: [Option<&mut [f32]>; 3],
+    lens: Option<&mut [f32]>,
     k: usize,
     m: usize,
 ) {
@@ -104,7 +109,12 @@ unsafe fn chunk<const PROJECTED: bool, const WHOLE: bool>(
         let p = |s: &[f32]| {
             if WHOLE { _mm512_loadu_ps(s.as_ptr().add(k)) } else { _mm512_maskz_loadu_ps(lanes, s.as_ptr().add(k)) }
         };
-        let f = join(force::<PROJECTED>(d, w, p(rest), p(ks), p(kd)));
+        let (f, l) = force::<PROJECTED>(d, w, p(rest), p(ks), p(kd));
+        if let Some(lens) = lens {
+            let at = lens.as_mut_ptr().add(k);
+            if WHOLE { _mm512_storeu_ps(at, l) } else { _mm512_mask_storeu_ps(at, lanes, l) }
+        }
+        let f = join(f);
         if let Some(out) = out {
             store3(out, 3 * k, f, mask);
         }
@@ -241,7 +251,7 @@ unsafe fn join(f: [__m512; 3]) -> [__m512; 3] {
     }
 }
 
-/// [`super::spring::force_components`] on 16 lanes: the same operations in the same order.
+/// [`super::spring::force_components`] on 16 lanes: the same operations in the same order; and the lengths.
 #[inline(always)]
 unsafe fn force<const PROJECTED: bool>(
     d: [__m512; 3],
@@ -249,7 +259,7 @@ unsafe fn force<const PROJECTED: bool>(
     rest: __m512,
     ks: __m512,
     kd: __m512,
-) -> [__m512; 3] {
+) -> ([__m512; 3], __m512) {
     // SAFETY: AVX-512 F (the caller's target features).
     unsafe {
         let l2 = _mm512_add_ps(
@@ -267,9 +277,9 @@ unsafe fn force<const PROJECTED: bool>(
                 _mm512_mul_ps(w[2], u[2]),
             );
             let mag = _mm512_add_ps(el, _mm512_mul_ps(kd, dot));
-            [_mm512_mul_ps(u[0], mag), _mm512_mul_ps(u[1], mag), _mm512_mul_ps(u[2], mag)]
+            ([_mm512_mul_ps(u[0], mag), _mm512_mul_ps(u[1], mag), _mm512_mul_ps(u[2], mag)], l)
         } else {
-            std::array::from_fn(|c| _mm512_add_ps(_mm512_mul_ps(u[c], el), _mm512_mul_ps(w[c], kd)))
+            (std::array::from_fn(|c| _mm512_add_ps(_mm512_mul_ps(u[c], el), _mm512_mul_ps(w[c], kd))), l)
         }
     }
 }
@@ -277,10 +287,10 @@ unsafe fn force<const PROJECTED: bool>(
 #[cfg(test)]
 mod tests {
     use super::span;
-    use crate::forces::spring::force_components;
+    use crate::forces::spring::force_parts;
 
     /// Every span length from 1 to 70 (whole chunks, a masked last chunk, both), ends 1, 2 and 75 apart, both
-    /// damping models: each lane's force is [`force_components`]' bit for bit, added and subtracted exactly where
+    /// damping models: each lane's force and length are [`force_parts`]' bit for bit, added and subtracted exactly where
     /// asked, and nothing outside the span's lanes is written.
     #[test]
     fn spans_give_the_scalar_bits_and_touch_only_their_lanes() {
@@ -305,14 +315,15 @@ mod tests {
             let mut out = vec![f32::NAN; 3 * (n + guard)];
             let base: Vec<f32> = (0..3 * (n + guard)).map(|k| k as f32 * 0.25).collect();
             let (mut add, mut sub) = (base.clone(), base.clone());
+            let mut lens = vec![f32::NAN; n + guard];
             let args = (&q[..], &qd[..], (i, j), (&rest[..], &ks[..], &kd[..]));
             // SAFETY: AVX-512 (checked above).
             unsafe {
                 let o = [Some(&mut out[..3 * n]), Some(&mut add[..3 * n]), Some(&mut sub[..3 * n])];
                 if projected {
-                    span::<true>(args.0, args.1, args.2, args.3, n, o)
+                    span::<true>(args.0, args.1, args.2, args.3, n, o, Some(&mut lens[..n]))
                 } else {
-                    span::<false>(args.0, args.1, args.2, args.3, n, o)
+                    span::<false>(args.0, args.1, args.2, args.3, n, o, Some(&mut lens[..n]))
                 }
             };
             for k in 0..n {
@@ -320,11 +331,12 @@ mod tests {
                 let (qi, qj, vi, vj) = (e(&q, i + k), e(&q, j + k), e(&qd, i + k), e(&qd, j + k));
                 let d = [qj[0] - qi[0], qj[1] - qi[1], qj[2] - qi[2]];
                 let w = [vj[0] - vi[0], vj[1] - vi[1], vj[2] - vi[2]];
-                let f = if projected {
-                    force_components::<f32, true>(d, w, rest[k], ks[k], kd[k])
+                let (f, _, l) = if projected {
+                    force_parts::<f32, true>(d, w, rest[k], ks[k], kd[k])
                 } else {
-                    force_components::<f32, false>(d, w, rest[k], ks[k], kd[k])
+                    force_parts::<f32, false>(d, w, rest[k], ks[k], kd[k])
                 };
+                assert_eq!(lens[k].to_bits(), l.to_bits(), "length: n {n}, lane {k}");
                 for c in 0..3 {
                     let at = 3 * k + c;
                     assert_eq!(out[at].to_bits(), f[c].to_bits(), "n {n}, offset {off}, lane {k}, component {c}");
@@ -333,6 +345,7 @@ mod tests {
                 }
             }
             assert!(out[3 * n..].iter().all(|x| x.is_nan()), "written past the span (n {n})");
+            assert!(lens[n..].iter().all(|x| x.is_nan()), "lengths past the span (n {n})");
             assert_eq!(&add[3 * n..], &base[3 * n..], "added past the span (n {n})");
             assert_eq!(&sub[3 * n..], &base[3 * n..], "subtracted past the span (n {n})");
             assert!(out[..3 * n].iter().any(|x| *x != 0.0), "forces formed (n {n})");
