@@ -29,11 +29,11 @@
 
 use std::arch::x86_64::*;
 
-/// The forces of one span of `n` springs of a run into `out` where given (3-vectors as flat components, `3n` values): lanes `k = 0 .. n`
-/// join particle `i + k` (end 0) and `j + k` (end 1). `rest`, `ks`, `kd`: per lane, at least `n`. `q`, `qd`:
-/// 3-vectors as flat components. Each lane's force is also added into `add[k]` (the block's sums at the span's
-/// ends 0) and subtracted from `sub[k]` (at its ends 1) where given, and its length stored in `lens[k]` (a
-/// measuring pass's: the strains are formed from them, `StrainSink::store`).
+/// The forces of one span of `n` springs of a run into `out` where given (3-vectors as flat components, `3n`
+/// values): lanes `k = 0 .. n` join particle `i + k` (end 0) and `j + k` (end 1). `rest`, `ks`, `kd`: per lane,
+/// at least `n`. `q`, `qd`: 3-vectors as flat components. Each lane's force is also added into `add[k]` (the
+/// block's sums at the span's ends 0) and subtracted from `sub[k]` (at its ends 1) where given, and its length
+/// stored in `lens[k]` (a measuring pass's: the strains are formed from them, `StrainSink::store`).
 ///
 /// The portable pass adds all of a span's forces at its ends 0, then subtracts them at its ends 1. A particle
 /// that is end 0 of one of the span's springs and end 1 of another gets its add first; the caller gives `sub`
@@ -290,8 +290,8 @@ mod tests {
     use crate::forces::spring::force_parts;
 
     /// Every span length from 1 to 70 (whole chunks, a masked last chunk, both), ends 1, 2 and 75 apart, both
-    /// damping models: each lane's force and length are [`force_parts`]' bit for bit, added and subtracted exactly where
-    /// asked, and nothing outside the span's lanes is written.
+    /// damping models: each lane's force and length are [`force_parts`]' bit for bit, added and subtracted exactly
+    /// where asked, and nothing outside the span's lanes is written.
     #[test]
     fn spans_give_the_scalar_bits_and_touch_only_their_lanes() {
         if !crate::isa::avx512() {
