@@ -231,22 +231,24 @@ unsafe fn index(t: &[i32; 16]) -> __m512i {
 #[inline(always)]
 unsafe fn split(v: [__m512; 3]) -> [__m512; 3] {
     // SAFETY: AVX-512 F (the caller's target features).
-    unsafe {
-        std::array::from_fn(|c| {
-            let t = _mm512_permutex2var_ps(v[0], index(&SPLIT[c][0]), v[1]);
-            _mm512_permutex2var_ps(t, index(&SPLIT[c][1]), v[2])
-        })
-    }
+    unsafe { permute3(v, &SPLIT) }
 }
 
 /// The inverse of [`split`].
 #[inline(always)]
 unsafe fn join(f: [__m512; 3]) -> [__m512; 3] {
     // SAFETY: AVX-512 F (the caller's target features).
+    unsafe { permute3(f, &JOIN) }
+}
+
+/// Output register `r` of three: the first two inputs through `t[r][0]`, then that and the third through `t[r][1]`.
+#[inline(always)]
+unsafe fn permute3(v: [__m512; 3], t: &[[[i32; 16]; 2]; 3]) -> [__m512; 3] {
+    // SAFETY: AVX-512 F (the caller's target features).
     unsafe {
         std::array::from_fn(|r| {
-            let t = _mm512_permutex2var_ps(f[0], index(&JOIN[r][0]), f[1]);
-            _mm512_permutex2var_ps(t, index(&JOIN[r][1]), f[2])
+            let first = _mm512_permutex2var_ps(v[0], index(&t[r][0]), v[1]);
+            _mm512_permutex2var_ps(first, index(&t[r][1]), v[2])
         })
     }
 }
