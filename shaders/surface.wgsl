@@ -184,10 +184,11 @@ fn surface_force(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_wor
     let rho = params.wind_u.w;
     if (rho > 0.0 && (body.drag != 0.0 || body.lift != 0.0)) {
         let third = 1.0 / 3.0;
-        let centroid = (q_src(tri.x) + q_src(tri.y) + q_src(tri.z)) * third;
-        let vel = (qd_src(tri.x) + qd_src(tri.y) + qd_src(tri.z)) * third;
-        let air = wind_sample(centroid, clock.time);
-        f += aero_force(c, air - vel, body.drag, body.lift, 0.5 * rho) * third;
+        // The mean of the corners' relative air `w(x) - v` (the CPU samples each particle once: `relative_air`).
+        let ra = wind_sample(q_src(tri.x), clock.time) - qd_src(tri.x);
+        let rb = wind_sample(q_src(tri.y), clock.time) - qd_src(tri.y);
+        let rc = wind_sample(q_src(tri.z), clock.time) - qd_src(tri.z);
+        f += aero_force(c, (ra + rb + rc) * third, body.drag, body.lift, 0.5 * rho) * third;
     }
     tri_f[t] = vec4<f32>(f, 0.0);
 }

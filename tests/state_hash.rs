@@ -34,6 +34,9 @@
 //! Then (2026-11-25) the wind on cloth grids is summed per particle a row of quads at a time (`forces::wind_grid`)
 //! instead of gathered from per-triangle forces, and the drag and lift are written through `c·v` (one square root
 //! and one division fewer: `forces::wind::aero_components`): the cloth in wind, by rounding.
+//! Then (2026-11-27) a triangle's relative air is the mean of its corners' `w(x) - v`, the field sampled once per
+//! particle, instead of the field at its centroid minus its corners' mean velocity (both second-order quadratures
+//! of the same field; half the sines: `forces::wind`'s docs): the cloth in wind.
 //!
 //! The hash covers positions, velocities and time (their bits), the counts of particles, springs, triangles and
 //! bodies, every body's gas, and the fracture events (kind, time bits, index). The CPU engine is deterministic
@@ -114,7 +117,7 @@ fn ball_drop_scene_final_state_is_bit_identical() {
 #[test]
 fn cloth_wind_scene_final_state_is_bit_identical() {
     let (h, _) = scene_hash("cloth_wind.toml");
-    check("cloth_wind.toml", h, 0x3e69_06c5_67c4_5c7b);
+    check("cloth_wind.toml", h, 0xdf4a_d1ca_7aec_4702);
 }
 
 /// A punctured, pressurised f64 ball under velocity Verlet: two core splits and a spring split by hand, then the

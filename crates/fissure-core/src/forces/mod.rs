@@ -45,6 +45,8 @@ pub(crate) struct ForceScratch<R: Real> {
     pub tri_sums: Vec<R::V>,
     /// The grid plan's loose triangles' forces \[N\].
     pub loose_f: Vec<R::V>,
+    /// Each particle's relative air `w(x) - v` \[m/s\] (the general wind pass: [`wind::relative_air`]).
+    pub air_rel: Vec<R::V>,
     /// `P / 6` of each body \[Pa\]: a corner's pressure share is `cross · P / 6`.
     pub body_p6: Vec<R>,
     /// Per-chunk, per-body partial sums of `6 V`.
@@ -97,6 +99,7 @@ impl<R: Real> ForceScratch<R> {
         self.grid_plan = wind_grid::GridPlan::of_model(m);
         let planned = self.grid_plan.as_ref();
         self.tri_f.resize(if m.has_wind() && planned.is_none() { nt } else { 0 }, R::V::ZERO);
+        self.air_rel.resize(if m.has_wind() && planned.is_none() { m.particle_count() } else { 0 }, R::V::ZERO);
         // Sums of particles without triangles are never written: zero from here on.
         self.tri_sums.clear();
         self.tri_sums.resize(if planned.is_some() { m.particle_count() } else { 0 }, R::V::ZERO);
@@ -206,19 +209,23 @@ impl<R: Real> ForceScratch<R> {
             plan.run(m, q, qd, &wind, rho_half, body_pressure, &mut self.tri_sums, &mut self.loose_f);
             return;
         }
-        // Each triangle's force is its own: on the team in finer pieces (`par::piece`), the same bits.
+        // The wind sampled once per particle (a triangle's relative air is its corners' mean), then each
+        // triangle's force, its own: on the team in finer pieces (`par::piece`), the same bits.
+        let (pool, size) = (par::is_pooled(self.air_rel.len()), par::piece(par::CHUNK));
+        par::chunks_pooled(pool, size, &mut self.air_rel, |start, out| wind::relative_air(q, qd, &wind, start, out));
+        let air = wind::Air::Particles(&self.air_rel);
         let (pool, size) = (par::is_pooled(self.tri_f.len()), par::piece(par::CHUNK));
         if fused_wind {
             // No gas: the crosses are formed in the wind pass and kept by nothing else (not stored: on the
             // 10,242-vertex ball a 240 KB stream of writes fewer a step).
             par::chunks_pooled(pool, size, &mut self.tri_f, |start, out| {
                 let tris = wind::Tris::Range { start, cross: None };
-                wind::wind_chunk(m, q, qd, tris, body_pressure, &wind, rho_half, out)
+                wind::wind_chunk(m, q, qd, air, tris, body_pressure, rho_half, &wind, out)
             });
         } else {
             par::chunks2_pooled(pool, size, &mut self.tri_f, &mut self.tri_cross, |start, out, cross| {
                 let tris = wind::Tris::Range { start, cross: Some(&*cross) };
-                wind::wind_chunk(m, q, qd, tris, body_pressure, &wind, rho_half, out)
+                wind::wind_chunk(m, q, qd, air, tris, body_pressure, rho_half, &wind, out)
             });
         }
     }

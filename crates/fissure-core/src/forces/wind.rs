@@ -5,12 +5,20 @@
 //! 0.37 f (incommensurate, so the pattern never repeats exactly), `ê` horizontal and perpendicular to `U`.
 //! It is smooth and deterministic: a given `(x, t)` always gives the same wind, on the CPU and on the GPU.
 //!
-//! Each triangle feels drag and lift on the air's velocity relative to it, `v = w(centroid) - v_triangle`,
-//! with area `A` and unit normal `n` (sign chosen so `n·v ≥ 0`):
+//! Each triangle feels drag and lift on the air's velocity relative to it: the mean over its three corners of
+//! `w(x_i) - v_i` (the field sampled at the corners, not at the centroid), with area `A` and unit normal `n` (sign
+//! chosen so `n·v ≥ 0`):
 //! - drag `½ ρ C_D A |n·v| v` (along the flow, largest face-on),
 //! - lift `½ ρ C_L A (n·v) (n |v| - (n·v̂) v)` (across the flow, largest at 45°),
 //!
 //! split equally over the three corners. Both vanish on a sheet moving with the air.
+//!
+//! Why the corners: both the corner mean and the centroid sample are second-order quadratures of the field over
+//! the triangle (exact for a field linear in `x`; for the gust's sine they differ by about `(kh)²/9` of it, with
+//! `k = 2π/λ` and `h` the edge: ~3e-5 on a 1 cm cloth in the default 4 m gusts). A particle's sample is shared by its six triangles, so the wind pass
+//! takes one sample (two polynomial sines) per particle instead of one per triangle: half as many on a closed
+//! mesh or a cloth. Measured 2026-11-27 on the 128² cloth in wind (the grid pass, two threads, probe): the
+//! wind's added cost 45–46 → 34–36 µs a step, on a spring pass of ~40 µs.
 
 use crate::model::Model;
 use crate::real::{Real, Vector3};
@@ -253,20 +261,70 @@ pub(crate) enum Tris<'a, R: Real> {
 }
 
 crate::isa::wide_kernel! {
+    /// Each particle's air velocity relative to it, `w(x) - v` \[m/s\], for particles `start .. start +
+    /// out.len()` into `out`: the wind sampled once per particle, a span at a time (positions and velocities
+    /// transposed into per-component arrays, the sample run as a plain loop over them: packed polynomial sines).
+    /// The triangles then take the mean of their corners' ([`wind_chunk`], `forces::wind_grid`).
+    pub(crate) fn relative_air[R: Real](
+        q: &[R::V],
+        qd: &[R::V],
+        w: &PreparedWind<R>,
+        start: usize,
+        out: &mut [R::V],
+    ) => relative_air_impl[R]
+}
+
+#[inline(always)]
+fn relative_air_impl<R: Real>(q: &[R::V], qd: &[R::V], w: &PreparedWind<R>, start: usize, out: &mut [R::V]) {
+    let z = [[R::ZERO; SPAN]; 3];
+    let (mut x, mut v) = (z, z);
+    for (c, out) in out.chunks_mut(SPAN).enumerate() {
+        let p0 = start + c * SPAN;
+        let n = out.len();
+        let (fq, fv) = (R::flat(&q[p0..p0 + n]), R::flat(&qd[p0..p0 + n]));
+        for k in 0..n {
+            for e in 0..3 {
+                (x[e][k], v[e][k]) = (fq[3 * k + e], fv[3 * k + e]);
+            }
+        }
+        for k in 0..SPAN {
+            let air = w.sample_components([x[0][k], x[1][k], x[2][k]]);
+            for e in 0..3 {
+                v[e][k] = air[e] - v[e][k];
+            }
+        }
+        for (k, o) in out.iter_mut().enumerate() {
+            *o = R::V::new(v[0][k], v[1][k], v[2][k]);
+        }
+    }
+}
+
+/// Where the wind kernel finds its corners' relative air (`w(x) - v`).
+#[derive(Clone, Copy)]
+pub(crate) enum Air<'a, R: Real> {
+    /// Per particle, from [`relative_air`].
+    Particles(&'a [R::V]),
+    /// Sampled at each corner here (a few listed triangles: no pass over the particles for them). The same
+    /// formula in the same order as [`relative_air`]: the same bits.
+    Corners,
+}
+
+crate::isa::wide_kernel! {
     /// Corner forces (pressure share + a third of drag and lift) of the triangles `tris` names into `out` (one per
-    /// triangle), a span at a time: per-lane inputs gathered into per-component arrays, the wind sample and
-    /// [`aero_components`] run as plain loops over them (packed square roots, divisions and the polynomial sines),
-    /// results scattered back. Compiled for AVX-512 or AVX2 when the CPU has them (same bits: see `crate::isa`;
-    /// AVX-512 measured on the 128² cloth in wind, harness `terms`, 2026-11-24: the surface stage 141–144 → 130–131
-    /// µs).
+    /// triangle), a span at a time: per-lane inputs gathered into per-component arrays, [`aero_components`] run as
+    /// a plain loop over them (packed square roots and divisions), results scattered back. A triangle's relative
+    /// air is the mean of its corners' (`air`). Compiled for AVX-512 or AVX2 when the CPU has them (same bits: see
+    /// `crate::isa`; AVX-512 measured on the 128² cloth in wind, harness `terms`, 2026-11-24: the surface stage
+    /// 141–144 → 130–131 µs).
     pub(crate) fn wind_chunk[R: Real](
         m: &Model<R>,
         q: &[R::V],
         qd: &[R::V],
+        air: Air<'_, R>,
         tris: Tris<'_, R>,
         pressure: &[R],
-        w: &PreparedWind<R>,
         rho_half: R,
+        w: &PreparedWind<R>,
         out: &mut [R::V],
     ) => wind_chunk_impl[R]
 }
@@ -277,15 +335,18 @@ fn wind_chunk_impl<R: Real>(
     m: &Model<R>,
     q: &[R::V],
     qd: &[R::V],
+    air: Air<'_, R>,
     tris: Tris<'_, R>,
     pressure: &[R],
-    w: &PreparedWind<R>,
     rho_half: R,
+    w: &PreparedWind<R>,
     out: &mut [R::V],
 ) {
     let third = R::from_f64(1.0 / 3.0);
     let z = [[R::ZERO; SPAN]; 3];
-    let (mut c, mut x, mut v, mut f) = (z, z, z, z);
+    let (mut c, mut rel, mut f) = (z, z, z);
+    // Corners' positions and velocities (`Air::Corners` only).
+    let (mut xs, mut vs) = ([z; 3], [z; 3]);
     let (mut cd, mut cl, mut p) = ([R::ZERO; SPAN], [R::ZERO; SPAN], [R::ZERO; SPAN]);
     let mut corners = [[0u32; 3]; SPAN];
     let mut bodies = [0u32; SPAN];
@@ -310,7 +371,11 @@ fn wind_chunk_impl<R: Real>(
         // 2026-11-25: the surface stage 246 → 170 µs a step on the 128² cloth in wind, 160 → 107 µs on the
         // 10,242-vertex ball.
         let top = idx.iter().fold(0u32, |a, &[i, j, l]| a.max(i).max(j).max(l)) as usize;
-        assert!(top < q.len() && top < qd.len(), "triangle corner out of range");
+        let air_len = match air {
+            Air::Particles(a) => a.len(),
+            Air::Corners => qd.len(),
+        };
+        assert!(top < q.len() && top < air_len, "triangle corner out of range");
         let b0 = body[0];
         if body.iter().all(|&b| b == b0) {
             let b0 = b0 as usize;
@@ -325,19 +390,23 @@ fn wind_chunk_impl<R: Real>(
         }
         for k in 0..n {
             let [a, b, d] = idx[k].map(|i| i as usize);
-            // SAFETY: a, b, d <= top < q.len(), qd.len() (asserted above).
-            let (qa, qb, qc, va, vb, vc) = unsafe {
-                (
-                    *q.get_unchecked(a),
-                    *q.get_unchecked(b),
-                    *q.get_unchecked(d),
-                    *qd.get_unchecked(a),
-                    *qd.get_unchecked(b),
-                    *qd.get_unchecked(d),
-                )
-            };
-            let centroid = ((qa + qb + qc) * third).to_array();
-            let vel = ((va + vb + vc) * third).to_array();
+            // SAFETY: a, b, d <= top < q.len() and the relative air's length (asserted above).
+            let (qa, qb, qc) = unsafe { (*q.get_unchecked(a), *q.get_unchecked(b), *q.get_unchecked(d)) };
+            if let Air::Particles(air) = air {
+                let (ra, rb, rc) = unsafe { (*air.get_unchecked(a), *air.get_unchecked(b), *air.get_unchecked(d)) };
+                let r = ((ra + rb + rc) * third).to_array();
+                for e in 0..3 {
+                    rel[e][k] = r[e];
+                }
+            } else {
+                let (va, vb, vc) = unsafe { (*qd.get_unchecked(a), *qd.get_unchecked(b), *qd.get_unchecked(d)) };
+                for (j, (x, v)) in [(qa, va), (qb, vb), (qc, vc)].into_iter().enumerate() {
+                    let (x, v) = (x.to_array(), v.to_array());
+                    for e in 0..3 {
+                        (xs[j][e][k], vs[j][e][k]) = (x[e], v[e]);
+                    }
+                }
+            }
             // The surface pass's formula (`forces::cross_chunk`): the same bits.
             let cr = match &tris {
                 Tris::Range { cross: Some(cross), .. } => cross[k0 + k],
@@ -345,23 +414,29 @@ fn wind_chunk_impl<R: Real>(
             }
             .to_array();
             for e in 0..3 {
-                (c[e][k], x[e][k], v[e][k]) = (cr[e], centroid[e], vel[e]);
+                c[e][k] = cr[e];
             }
         }
-        // Three simple loops over the lanes (each one vectorises): the wind, the relative air, the forces.
-        let mut air = z;
-        for k in 0..SPAN {
-            [air[0][k], air[1][k], air[2][k]] = w.sample_components([x[0][k], x[1][k], x[2][k]]);
-        }
-        for k in 0..SPAN {
+        if let Air::Corners = air {
+            // Each corner's relative air as `relative_air` forms it, then their mean in corner order.
+            for j in 0..3 {
+                for k in 0..SPAN {
+                    let a = w.sample_components([xs[j][0][k], xs[j][1][k], xs[j][2][k]]);
+                    for e in 0..3 {
+                        vs[j][e][k] = a[e] - vs[j][e][k];
+                    }
+                }
+            }
             for e in 0..3 {
-                air[e][k] -= v[e][k];
+                for k in 0..SPAN {
+                    rel[e][k] = (vs[0][e][k] + vs[1][e][k] + vs[2][e][k]) * third;
+                }
             }
         }
         let sixth = R::from_f64(1.0 / 6.0);
         for k in 0..SPAN {
             let cr = [c[0][k], c[1][k], c[2][k]];
-            let a = aero_components(cr, [air[0][k], air[1][k], air[2][k]], cd[k], cl[k], rho_half);
+            let a = aero_components(cr, [rel[0][k], rel[1][k], rel[2][k]], cd[k], cl[k], rho_half);
             let ps = p[k] * sixth;
             for e in 0..3 {
                 // `pressure::corner_force` (c · p/6) plus a third of the aerodynamic force.

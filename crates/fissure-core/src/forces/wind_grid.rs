@@ -164,7 +164,7 @@ impl GridPlan {
         let (pool, size) = (par::is_pooled(self.loose.len()), par::piece(par::CHUNK));
         par::chunks_pooled(pool, size, loose_f, |start, out| {
             let ids = &self.loose[start..start + out.len()];
-            wind::wind_chunk(m, q, qd, wind::Tris::List(ids), pressure, w, rho_half, out)
+            wind::wind_chunk(m, q, qd, wind::Air::Corners, wind::Tris::List(ids), pressure, rho_half, w, out)
         });
         for &v in &self.loose_particles {
             sums[v as usize] = R::V::ZERO;
@@ -199,27 +199,36 @@ crate::isa::wide_kernel! {
     ) => rows[R]
 }
 
-/// Positions and velocities of a row's particles in a tile, per component.
+/// Positions of a row's particles in a tile and the air relative to each, per component.
 #[derive(Clone, Copy)]
 struct Row<R> {
     x: [[R; LANES]; 3],
-    v: [[R; LANES]; 3],
+    /// `w(x) - v`: the air velocity relative to the particle, as [`wind::relative_air`] forms it.
+    rel: [[R; LANES]; 3],
 }
 
 impl<R: Real> Row<R> {
     fn new() -> Self {
         let z = [[R::ZERO; LANES]; 3];
-        Row { x: z, v: z }
+        Row { x: z, rel: z }
     }
 
-    /// Particles `start .. start + n` (lanes past `n` keep what they held: computed, never used).
+    /// Particles `start .. start + n` (lanes past `n` keep what they held: computed, never used), and the wind
+    /// sampled once at each: a row is loaded once per tile, so every particle's sample is shared by its six
+    /// triangles.
     #[inline(always)]
-    fn load(&mut self, q: &[R::V], qd: &[R::V], start: usize, n: usize) {
+    fn load(&mut self, q: &[R::V], qd: &[R::V], start: usize, n: usize, w: &PreparedWind<R>) {
         let (fq, fv) = (R::flat(&q[start..start + n]), R::flat(&qd[start..start + n]));
         for k in 0..n {
             for e in 0..3 {
                 self.x[e][k] = fq[3 * k + e];
-                self.v[e][k] = fv[3 * k + e];
+                self.rel[e][k] = fv[3 * k + e];
+            }
+        }
+        for k in 0..n.next_multiple_of(16).min(LANES) {
+            let air = w.sample_components([self.x[0][k], self.x[1][k], self.x[2][k]]);
+            for e in 0..3 {
+                self.rel[e][k] = air[e] - self.rel[e][k];
             }
         }
     }
@@ -263,15 +272,15 @@ fn rows<R: Real>(
         // Quads `qlo .. qhi` (the one left of the tile too, for its right share), particles `qlo ..= qhi`.
         let (qlo, qhi) = (i0.saturating_sub(1), i1.min(nx - 1));
         let nq = qhi - qlo;
-        rows[rlo % 2].load(q, qd, base + rlo * nx + qlo, nq + 1);
+        rows[rlo % 2].load(q, qd, base + rlo * nx + qlo, nq + 1, w);
         // Sums of particle rows `r` and `r + 1` (tile lanes: particle `i0 + k`).
         let mut acc = [z, z];
         let (ka, kb) = (i0 - qlo, (i1 - qlo - 1).min(nq));
         for r in rlo..rhi {
-            rows[(r + 1) % 2].load(q, qd, base + (r + 1) * nx + qlo, nq + 1);
+            rows[(r + 1) % 2].load(q, qd, base + (r + 1) * nx + qlo, nq + 1, w);
             let quads = &mask[2 * (r * (nx - 1) + qlo)..2 * (r * (nx - 1) + qhi)];
             let (lo, hi) = (&rows[r % 2], &rows[(r + 1) % 2]);
-            quad_row(lo, hi, quads, (qlo + r) % 2 == 0, nq, w, c, &mut s);
+            quad_row(lo, hi, quads, (qlo + r) % 2 == 0, nq, c, &mut s);
             let [a0, a1] = &mut acc;
             let (now, next) = if r % 2 == 0 { (a0, a1) } else { (a1, a0) };
             // Particle `v` of row r takes `l0` of quad `v` and `r0` of quad `v - 1`; of row r + 1, `l1` and `r1`
@@ -319,18 +328,8 @@ fn store<R: Real>(acc: &Lanes<R>, out: &mut [R::V]) {
 /// `B = (p10, p01, p11)` ([`TriGrid::quad`]). The maths of [`wind::aero_components`], lane by lane; a changed
 /// triangle (`quads[2k + s] == 0`) gives nothing. The `nq` quads are computed in whole vectors of 16 lanes;
 /// those past `nq` are never used.
-#[allow(clippy::too_many_arguments)]
 #[inline(always)]
-fn quad_row<R: Real>(
-    lo: &Row<R>,
-    hi: &Row<R>,
-    quads: &[u8],
-    even: bool,
-    nq: usize,
-    w: &PreparedWind<R>,
-    c: &Coef<R>,
-    s: &mut Shares<R>,
-) {
+fn quad_row<R: Real>(lo: &Row<R>, hi: &Row<R>, quads: &[u8], even: bool, nq: usize, c: &Coef<R>, s: &mut Shares<R>) {
     let (mut ok_a, mut ok_b) = ([false; QUADS], [false; QUADS]);
     for (k, t) in quads.chunks_exact(2).enumerate() {
         (ok_a[k], ok_b[k]) = (t[0] != 0, t[1] != 0);
@@ -338,15 +337,14 @@ fn quad_row<R: Real>(
     for k in 0..nq.next_multiple_of(16).min(QUADS) {
         let ev = (k % 2 == 0) == even;
         let p = |r: &Row<R>, o: usize| [r.x[0][k + o], r.x[1][k + o], r.x[2][k + o]];
-        let u = |r: &Row<R>, o: usize| [r.v[0][k + o], r.v[1][k + o], r.v[2][k + o]];
+        let u = |r: &Row<R>, o: usize| [r.rel[0][k + o], r.rel[1][k + o], r.rel[2][k + o]];
         let sel = |e: bool, a: [R; 3], b: [R; 3]| if e { a } else { b };
         let (p00, p10, p01, p11) = (p(lo, 0), p(lo, 1), p(hi, 0), p(hi, 1));
         let (u00, u10, u01, u11) = (u(lo, 0), u(lo, 1), u(hi, 0), u(hi, 1));
-        let a = triangle_force([p00, p01, sel(ev, p11, p10)], [u00, u01, sel(ev, u11, u10)], w, c);
+        let a = triangle_force([p00, p01, sel(ev, p11, p10)], [u00, u01, sel(ev, u11, u10)], c);
         let b = triangle_force(
             [sel(ev, p00, p10), sel(ev, p11, p01), sel(ev, p10, p11)],
             [sel(ev, u00, u10), sel(ev, u11, u01), sel(ev, u10, u11)],
-            w,
             c,
         );
         // Even quads: p00 and p11 in both triangles, p01 in A, p10 in B; odd: p01 and p10 in both, p00 in A, p11
@@ -363,19 +361,16 @@ fn quad_row<R: Real>(
     }
 }
 
-/// One triangle's corner force (a third of its drag and lift) from its corners' positions and velocities: the
-/// general kernel's formulas (centroid, mean velocity, cross vector, [`wind::aero_components`]).
+/// One triangle's corner force (a third of its drag and lift) from its corners' positions and relative airs: the
+/// general kernel's formulas (the corners' mean relative air, the cross vector, [`wind::aero_components`]).
 #[inline(always)]
-fn triangle_force<R: Real>(x: [[R; 3]; 3], v: [[R; 3]; 3], w: &PreparedWind<R>, c: &Coef<R>) -> [R; 3] {
+fn triangle_force<R: Real>(x: [[R; 3]; 3], rel: [[R; 3]; 3], c: &Coef<R>) -> [R; 3] {
     let t = c.third;
-    let centroid = [0, 1, 2].map(|e| (x[0][e] + x[1][e] + x[2][e]) * t);
-    let vel = [0, 1, 2].map(|e| (v[0][e] + v[1][e] + v[2][e]) * t);
+    let air = [0, 1, 2].map(|e| (rel[0][e] + rel[1][e] + rel[2][e]) * t);
     let d1 = [0, 1, 2].map(|e| x[1][e] - x[0][e]);
     let d2 = [0, 1, 2].map(|e| x[2][e] - x[0][e]);
     let cross = [d1[1] * d2[2] - d2[1] * d1[2], d1[2] * d2[0] - d2[2] * d1[0], d1[0] * d2[1] - d2[0] * d1[1]];
-    let air = w.sample_components(centroid);
-    let rel = [air[0] - vel[0], air[1] - vel[1], air[2] - vel[2]];
-    let f = wind::aero_components(cross, rel, c.cd, c.cl, c.rho_half);
+    let f = wind::aero_components(cross, air, c.cd, c.cl, c.rho_half);
     [f[0] * t, f[1] * t, f[2] * t]
 }
 
