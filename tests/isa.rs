@@ -1,7 +1,8 @@
 //! Every instruction set the vector kernels can run on (`fissure::isa`) gives the same bits: the cloth in wind
 //! (the wind pass), the tearing cloth (the run kernel measuring its strains), the ball drop (the per-spring
 //! kernel), a grid cloth under symplectic Euler (the fused
-//! grid-run spring kernel and the update after it) and under implicit Euler (the solver's runs), each run once
+//! grid-run spring kernel and the update after it) and under implicit Euler (the solver's runs), a grid cloth
+//! dropped onto the ground and a ball (the collision pass's blocks in lanes, fused with the run kernel), each run once
 //! per set this CPU has, their final states compared bit for bit. One test in its own binary: the cap it sets holds for the whole process.
 
 use fissure::isa::{self, Isa};
@@ -31,18 +32,33 @@ fn grid_cloth(integrator: Integrator, duration: f64, dt: f64) -> Vec<u32> {
     bits(&world)
 }
 
+/// A 40² cloth (1 cm, 1 g a particle) lying on the ground and falling onto a ball beneath it: every collision
+/// block in contact with the plane, some with the ball (symplectic Euler: the colliders fused into the run pass).
+fn draped_cloth() -> Vec<u32> {
+    let mut b = ModelBuilder::new();
+    let opts = ClothOptions { pins: vec![], mass: Mass::PerParticle(1e-3), ..Default::default() };
+    b.add_cloth_grid(40, 40, 0.01, |p| fissure::glam::DVec3::new(p.x, 1.0, p.y), &opts).expect("cloth builds");
+    b.add_collider(Collider::ground(0.9995)).expect("ground");
+    b.add_collider(Collider::ball(fissure::glam::Vec3::new(0.2, 0.8, 0.2), 0.2).with_friction(0.5)).expect("ball");
+    let model = b.finalize().expect("cloth finalizes");
+    let mut world: World<f32> = World::new(model, SolverConfig::with(Integrator::SymplecticEuler));
+    world.advance(0.1, 1e-4).expect("cloth runs");
+    bits(&world)
+}
+
 #[test]
 fn every_instruction_set_gives_the_same_bits() {
     let sets = isa::available();
     assert_eq!(sets[0], Isa::Baseline);
     type Run = (&'static str, fn() -> Vec<u32>);
-    let runs: [Run; 5] = [
+    let runs: [Run; 6] = [
         ("cloth_wind.toml", || scene("cloth_wind.toml")),
         // A breakable grid: the run kernel measures its springs' strains every step.
         ("cloth_tear.toml", || scene("cloth_tear.toml")),
         ("ball_drop.toml", || scene("ball_drop.toml")),
         ("24² cloth, symplectic Euler", || grid_cloth(Integrator::SymplecticEuler, 0.1, 2e-4)),
         ("24² cloth, implicit Euler", || grid_cloth(Integrator::ImplicitEuler, 0.25, 1.0 / 60.0)),
+        ("40² cloth on the ground and a ball", draped_cloth),
     ];
     for (name, run) in runs {
         let mut first: Option<(Isa, Vec<u32>)> = None;

@@ -235,3 +235,21 @@ macro_rules! impl_real {
 
 impl_real!(f32, Vec3);
 impl_real!(f64, DVec3);
+
+/// `x` as `f32` where `R` is `f32` (the caller checks; otherwise it panics).
+#[cfg(target_arch = "x86_64")]
+#[inline(always)]
+pub(crate) fn as_f32<R: Real>(x: &[R]) -> &[f32] {
+    assert_eq!(std::any::TypeId::of::<R>(), std::any::TypeId::of::<f32>());
+    // SAFETY: `R` is `f32` (asserted): the same type.
+    unsafe { std::slice::from_raw_parts(x.as_ptr().cast::<f32>(), x.len()) }
+}
+
+/// [`as_f32`], mutable.
+#[cfg(target_arch = "x86_64")]
+#[inline(always)]
+pub(crate) fn as_f32_mut<R: Real>(x: &mut [R]) -> &mut [f32] {
+    assert_eq!(std::any::TypeId::of::<R>(), std::any::TypeId::of::<f32>());
+    // SAFETY: `R` is `f32` (asserted): the same type.
+    unsafe { std::slice::from_raw_parts_mut(x.as_mut_ptr().cast::<f32>(), x.len()) }
+}

@@ -80,6 +80,16 @@ fn collider_lanes(p: &PreparedCollider, c: &Collider, b: &mut Lanes) -> bool {
         Quick::Sphere(centre, reach, r) => {
             let centre = centre.to_array();
             let (lim, m2, out) = (reach * reach * (1.0 + 1e-4) + 1e-12, c.margin * c.margin, r + c.margin);
+            // No lane within reach (most blocks of a cloth lying beside a ball): no contact, and none of the
+            // square roots and divisions below (the 128² cloth draped over the ground and a ball, two threads,
+            // 2026-11-27: the colliders' added cost 33–35 → 28 µs a step).
+            let near = (0..LANES).fold(false, |any, k| {
+                let d = [b.x[0][k] - centre[0], b.x[1][k] - centre[1], b.x[2][k] - centre[2]];
+                any | !((d[0] * d[0] + d[1] * d[1]) + d[2] * d[2] > lim)
+            });
+            if !near {
+                return false;
+            }
             for k in 0..LANES {
                 let d = [b.x[0][k] - centre[0], b.x[1][k] - centre[1], b.x[2][k] - centre[2]];
                 let l2 = (d[0] * d[0] + d[1] * d[1]) + d[2] * d[2];
@@ -143,6 +153,84 @@ fn collider_lanes(p: &PreparedCollider, c: &Collider, b: &mut Lanes) -> bool {
     contact.iter().any(|&c| c)
 }
 
+/// A whole block's positions and velocities (`q`, `qd`: `LANES` 3-vectors as flat `f32` components) into `b`'s
+/// per-component arrays with two-source permutes (`isa::vec3x16`), and the box of its positions: per component
+/// the least and greatest value, NaN ignored as `f32::min` and `f32::max` ignore it (`+∞`/`-∞` if every value is
+/// NaN), so the same box as the scalar loop's. The transposition and box were a third of the collision pass's
+/// time (`perf`, the 128² cloth draped over the ground and a ball, 2026-11-27).
+///
+/// # Safety
+/// The CPU has AVX-512 F and VL.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx512f,avx512vl")]
+pub(crate) unsafe fn load_block(q: &[f32], qd: &[f32], b: &mut Lanes) -> ([f32; 3], [f32; 3]) {
+    use crate::isa::vec3x16::{load3, split};
+    use std::arch::x86_64::*;
+    assert!(q.len() == 3 * LANES && qd.len() == 3 * LANES);
+    let (mut lo, mut hi) = ([_mm512_set1_ps(f32::INFINITY); 3], [_mm512_set1_ps(f32::NEG_INFINITY); 3]);
+    for h in 0..LANES / 16 {
+        // SAFETY: 48 values from 48 h, within the asserted lengths; AVX-512 F (the target features).
+        let (x, v) = unsafe { (split(load3(q, 48 * h, None)), split(load3(qd, 48 * h, None))) };
+        for e in 0..3 {
+            // SAFETY: `b.x[e]` and `b.v[e]` hold `LANES` values.
+            unsafe {
+                _mm512_storeu_ps(b.x[e].as_mut_ptr().add(16 * h), x[e]);
+                _mm512_storeu_ps(b.v[e].as_mut_ptr().add(16 * h), v[e]);
+            }
+            // `min(x, lo)` is `lo` where `x` is NaN: NaN is ignored.
+            lo[e] = _mm512_min_ps(x[e], lo[e]);
+            hi[e] = _mm512_max_ps(x[e], hi[e]);
+        }
+    }
+    let min = [_mm512_reduce_min_ps(lo[0]), _mm512_reduce_min_ps(lo[1]), _mm512_reduce_min_ps(lo[2])];
+    (min, [_mm512_reduce_max_ps(hi[0]), _mm512_reduce_max_ps(hi[1]), _mm512_reduce_max_ps(hi[2])])
+}
+
+/// Writes back the lanes of `b` that a collider pushed (`b.hit`) and whose particle moves (`inv_mass` not zero)
+/// into `q`, `qd` (as [`load_block`] reads them), the others left as they are; true if a written lane is not
+/// finite. The scalar write-back's values and its test, lane for lane.
+///
+/// # Safety
+/// The CPU has AVX-512 F and VL.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx512f,avx512vl")]
+pub(crate) unsafe fn store_block(b: &Lanes, inv_mass: &[f32], q: &mut [f32], qd: &mut [f32]) -> bool {
+    use crate::isa::vec3x16::{join, load3, split, store3};
+    use std::arch::x86_64::*;
+    assert!(q.len() == 3 * LANES && qd.len() == 3 * LANES && inv_mass.len() == LANES);
+    let mut bad = false;
+    for h in 0..LANES / 16 {
+        let mut hit = 0u16;
+        for k in 0..16 {
+            hit |= (b.hit[16 * h + k] as u16) << k;
+        }
+        // SAFETY: 16 values from 16 h, within the asserted length.
+        let w = unsafe { _mm512_loadu_ps(inv_mass.as_ptr().add(16 * h)) };
+        // `w == 0` skips a lane (NaN is written, as the scalar test `w == 0` lets it through).
+        let write = hit & _mm512_cmp_ps_mask::<_CMP_NEQ_UQ>(w, _mm512_setzero_ps());
+        if write == 0 {
+            continue;
+        }
+        // SAFETY: as in `load_block`.
+        unsafe {
+            let (x0, v0) = (split(load3(q, 48 * h, None)), split(load3(qd, 48 * h, None)));
+            let (mut x, mut v) = (x0, v0);
+            // Finite where `a - a` is 0 (NaN for ±∞ and NaN).
+            let mut all = 0xffffu16;
+            for e in 0..3 {
+                x[e] = _mm512_mask_blend_ps(write, x0[e], _mm512_loadu_ps(b.x[e].as_ptr().add(16 * h)));
+                v[e] = _mm512_mask_blend_ps(write, v0[e], _mm512_loadu_ps(b.v[e].as_ptr().add(16 * h)));
+                all &= _mm512_cmp_ps_mask::<_CMP_EQ_OQ>(_mm512_sub_ps(x[e], x[e]), _mm512_setzero_ps());
+                all &= _mm512_cmp_ps_mask::<_CMP_EQ_OQ>(_mm512_sub_ps(v[e], v[e]), _mm512_setzero_ps());
+            }
+            bad |= write & !all != 0;
+            store3(q, 48 * h, join(x), None);
+            store3(qd, 48 * h, join(v), None);
+        }
+    }
+    bad
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -164,6 +252,57 @@ mod tests {
             }
         }
         touched.then_some((x, v))
+    }
+
+    /// The AVX-512 block load and write-back give the scalar loops' values: the same arrays and box (a NaN and an
+    /// infinite coordinate among them), and only the pushed lanes of moving particles written, with the
+    /// non-finite test of the written ones.
+    #[cfg(target_arch = "x86_64")]
+    #[test]
+    fn the_avx512_block_load_and_store_match_the_scalar_loops() {
+        if !crate::isa::avx512() {
+            return;
+        }
+        let mut q: Vec<f32> = (0..3 * LANES).map(|i| ((i as f32) * 0.37).sin()).collect();
+        let qd: Vec<f32> = (0..3 * LANES).map(|i| ((i as f32) * 0.91).cos()).collect();
+        q[7] = f32::NAN;
+        let mut b = Lanes::new();
+        // SAFETY: AVX-512 (checked above).
+        let (lo, hi) = unsafe { load_block(&q, &qd, &mut b) };
+        let (mut slo, mut shi) = (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY));
+        for k in 0..LANES {
+            let x = Vec3::new(q[3 * k], q[3 * k + 1], q[3 * k + 2]);
+            (slo, shi) = (slo.min(x), shi.max(x));
+            for e in 0..3 {
+                assert_eq!(b.x[e][k].to_bits(), q[3 * k + e].to_bits());
+                assert_eq!(b.v[e][k].to_bits(), qd[3 * k + e].to_bits());
+            }
+        }
+        assert_eq!((lo, hi), (slo.to_array(), shi.to_array()));
+        let mut inv_mass = vec![1.0f32; LANES];
+        inv_mass[3] = 0.0;
+        for k in 0..LANES {
+            b.hit[k] = k % 3 != 1;
+            for e in 0..3 {
+                b.x[e][k] += 1.0;
+                b.v[e][k] -= 2.0;
+            }
+        }
+        let (mut q2, mut qd2) = (q.clone(), qd.clone());
+        // SAFETY: as above.
+        let bad = unsafe { store_block(&b, &inv_mass, &mut q2, &mut qd2) };
+        for k in 0..LANES {
+            let written = b.hit[k] && inv_mass[k] != 0.0;
+            for e in 0..3 {
+                let (want_q, want_v) = if written { (b.x[e][k], b.v[e][k]) } else { (q[3 * k + e], qd[3 * k + e]) };
+                assert_eq!(q2[3 * k + e].to_bits(), want_q.to_bits(), "lane {k}");
+                assert_eq!(qd2[3 * k + e].to_bits(), want_v.to_bits(), "lane {k}");
+            }
+        }
+        assert!(bad, "lane 2 (pushed, moving) holds the NaN");
+        b.hit[2] = false;
+        // SAFETY: as above.
+        assert!(!unsafe { store_block(&b, &inv_mass, &mut q.clone(), &mut qd.clone()) }, "no written lane is NaN");
     }
 
     /// Lanes give the scalar resolve's bits: a tilted moving plane and a spinning ball with restitution and

@@ -6,6 +6,8 @@ use super::spring::{SPAN, SpanScratch, StrainSink, span_forces};
 use crate::model::Model;
 use crate::par;
 use crate::real::{Real, Vector3};
+#[cfg(target_arch = "x86_64")]
+use crate::real::{as_f32, as_f32_mut};
 
 /// Spring forces summed per particle, for models made of [`crate::model::SpringRun`]s. Each fixed block of
 /// particles walks its runs ([`RunBlocks`]), computes the springs with an end in the block on contiguous slices
@@ -304,24 +306,6 @@ fn run_block<R: Real, const PROJECTED: bool>(
             }
         }
     }
-}
-
-/// `x` as `f32` where `R` is `f32` (the caller checks; otherwise it panics).
-#[cfg(target_arch = "x86_64")]
-#[inline(always)]
-fn as_f32<R: Real>(x: &[R]) -> &[f32] {
-    assert_eq!(std::any::TypeId::of::<R>(), std::any::TypeId::of::<f32>());
-    // SAFETY: `R` is `f32` (asserted): the same type.
-    unsafe { std::slice::from_raw_parts(x.as_ptr().cast::<f32>(), x.len()) }
-}
-
-/// [`as_f32`], mutable.
-#[cfg(target_arch = "x86_64")]
-#[inline(always)]
-fn as_f32_mut<R: Real>(x: &mut [R]) -> &mut [f32] {
-    assert_eq!(std::any::TypeId::of::<R>(), std::any::TypeId::of::<f32>());
-    // SAFETY: `R` is `f32` (asserted): the same type.
-    unsafe { std::slice::from_raw_parts_mut(x.as_mut_ptr().cast::<f32>(), x.len()) }
 }
 
 #[cfg(test)]

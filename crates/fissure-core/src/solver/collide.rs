@@ -123,14 +123,29 @@ pub(super) fn collide_chunk<R: Real>(
     // Planes and balls only: each block goes through them all at once, lane by lane (`collision::lanes`: the same
     // bits as the full resolve below, which the near list and far check reproduce).
     let closed = lanes::all_closed_form(prepared);
+    // `f32` on AVX-512: whole blocks loaded and written back with permutes (`lanes::load_block`, the same values).
+    #[cfg(target_arch = "x86_64")]
+    let by_hand = closed && crate::isa::avx512() && std::any::TypeId::of::<R>() == std::any::TypeId::of::<f32>();
+    #[cfg(not(target_arch = "x86_64"))]
+    let by_hand = false;
     let mut block = lanes::Lanes::new();
     for (b, (qb, vb)) in qs.chunks_mut(COLLIDE_BLOCK).zip(vs.chunks_mut(COLLIDE_BLOCK)).enumerate() {
         let p0 = start + b * COLLIDE_BLOCK;
+        let whole = by_hand && qb.len() == COLLIDE_BLOCK;
         let (mut lo, mut hi) = (glam::Vec3::splat(f32::INFINITY), glam::Vec3::splat(f32::NEG_INFINITY));
-        for x in qb.iter() {
-            let x = x.to_vec3();
-            lo = lo.min(x);
-            hi = hi.max(x);
+        #[cfg(target_arch = "x86_64")]
+        if whole {
+            use crate::real::as_f32;
+            // SAFETY: AVX-512 (`by_hand`); a whole block.
+            let (l, h) = unsafe { lanes::load_block(as_f32(R::flat(qb)), as_f32(R::flat(vb)), &mut block) };
+            (lo, hi) = (glam::Vec3::from_array(l), glam::Vec3::from_array(h));
+        }
+        if !whole {
+            for x in qb.iter() {
+                let x = x.to_vec3();
+                lo = lo.min(x);
+                hi = hi.max(x);
+            }
         }
         let mut count = 0;
         let mut all = !(lo.is_finite() && hi.is_finite()) || prepared.len() > COLLIDE_NEAR;
@@ -145,6 +160,15 @@ pub(super) fn collide_chunk<R: Real>(
                 continue;
             }
             all = count == prepared.len();
+        }
+        #[cfg(target_arch = "x86_64")]
+        if whole {
+            use crate::real::{as_f32, as_f32_mut};
+            lanes::resolve_lanes(prepared, colliders, &mut block);
+            let w = as_f32(&inv_mass[p0..p0 + COLLIDE_BLOCK]);
+            // SAFETY: AVX-512 (`by_hand`); a whole block.
+            bad |= unsafe { lanes::store_block(&block, w, as_f32_mut(R::flat_mut(qb)), as_f32_mut(R::flat_mut(vb))) };
+            continue;
         }
         if closed {
             for (k, (x, v)) in qb.iter().zip(vb.iter()).enumerate() {
