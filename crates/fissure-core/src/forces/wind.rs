@@ -165,6 +165,15 @@ impl<R: Real> PreparedWind<R> {
         let (u, side) = (self.u.to_array(), self.side.to_array());
         [u[0] * g + side[0] * s, u[1] * g + side[1] * s, u[2] * g + side[2] * s]
     }
+
+    /// The air's velocity relative to a point at `x` \[m\] moving at `v` \[m/s\], `w(x) - v`, per component: what
+    /// each particle contributes to its triangles' relative air (the module docs). Its one home: the grid pass, the
+    /// per-particle pass and the corners of listed triangles all form it here.
+    #[inline(always)]
+    pub(crate) fn relative_components(&self, x: [R; 3], v: [R; 3]) -> [R; 3] {
+        let air = self.sample_components(x);
+        [air[0] - v[0], air[1] - v[1], air[2] - v[2]]
+    }
 }
 
 /// `sin x` by reduction to `[-π/2, π/2]` and an odd Taylor polynomial: degree 13 for `f32` (error below 1e-9,
@@ -288,9 +297,9 @@ fn relative_air_impl<R: Real>(q: &[R::V], qd: &[R::V], w: &PreparedWind<R>, star
             }
         }
         for k in 0..SPAN {
-            let air = w.sample_components([x[0][k], x[1][k], x[2][k]]);
+            let rel = w.relative_components([x[0][k], x[1][k], x[2][k]], [v[0][k], v[1][k], v[2][k]]);
             for e in 0..3 {
-                v[e][k] = air[e] - v[e][k];
+                v[e][k] = rel[e];
             }
         }
         for (k, o) in out.iter_mut().enumerate() {
@@ -421,9 +430,10 @@ fn wind_chunk_impl<R: Real>(
             // Each corner's relative air as `relative_air` forms it, then their mean in corner order.
             for j in 0..3 {
                 for k in 0..SPAN {
-                    let a = w.sample_components([xs[j][0][k], xs[j][1][k], xs[j][2][k]]);
+                    let (x, v) = (&xs[j], &vs[j]);
+                    let rel = w.relative_components([x[0][k], x[1][k], x[2][k]], [v[0][k], v[1][k], v[2][k]]);
                     for e in 0..3 {
-                        vs[j][e][k] = a[e] - vs[j][e][k];
+                        vs[j][e][k] = rel[e];
                     }
                 }
             }

@@ -226,9 +226,10 @@ impl<R: Real> Row<R> {
             }
         }
         for k in 0..n.next_multiple_of(16).min(LANES) {
-            let air = w.sample_components([self.x[0][k], self.x[1][k], self.x[2][k]]);
+            let (x, v) = (&self.x, &self.rel);
+            let rel = w.relative_components([x[0][k], x[1][k], x[2][k]], [v[0][k], v[1][k], v[2][k]]);
             for e in 0..3 {
-                self.rel[e][k] = air[e] - self.rel[e][k];
+                self.rel[e][k] = rel[e];
             }
         }
     }
