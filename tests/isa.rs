@@ -1,9 +1,9 @@
 //! Every instruction set the vector kernels can run on (`fissure::isa`) gives the same bits: the cloth in wind
 //! (the wind pass), the tearing cloth (the run kernel measuring its strains), the ball drop (the per-spring
-//! kernel), a grid cloth under symplectic Euler (the fused
-//! grid-run spring kernel and the update after it) and under implicit Euler (the solver's runs), a grid cloth
-//! dropped onto the ground and a ball (the collision pass's blocks in lanes, fused with the run kernel), each run once
-//! per set this CPU has, their final states compared bit for bit. One test in its own binary: the cap it sets holds for the whole process.
+//! kernel), a grid cloth under symplectic Euler (the fused grid-run spring kernel and the update after it) and
+//! under implicit Euler (the solver's runs), a grid cloth dropped onto the ground and a ball (the collision pass's
+//! blocks in lanes, fused with the run kernel), each run once per set this CPU has, their final states compared
+//! bit for bit. One test in its own binary: the cap it sets holds for the whole process.
 
 use fissure::isa::{self, Isa};
 use fissure::scene::Scene;

@@ -15,9 +15,9 @@
 //!
 //! Why the corners: both the corner mean and the centroid sample are second-order quadratures of the field over
 //! the triangle (exact for a field linear in `x`; for the gust's sine they differ by about `(kh)²/9` of it, with
-//! `k = 2π/λ` and `h` the edge: ~3e-5 on a 1 cm cloth in the default 4 m gusts). A particle's sample is shared by its six triangles, so the wind pass
-//! takes one sample (two polynomial sines) per particle instead of one per triangle: half as many on a closed
-//! mesh or a cloth. Measured 2026-11-27 on the 128² cloth in wind (the grid pass, two threads, probe): the
+//! `k = 2π/λ` and `h` the edge: ~3e-5 on a 1 cm cloth in the default 4 m gusts). A particle's sample is shared by
+//! its six triangles, so the wind pass takes one sample (two polynomial sines) per particle instead of one per
+//! triangle: half as many on a closed mesh or a cloth. Measured 2026-11-27 on the 128² cloth in wind (the grid pass, two threads, probe): the
 //! wind's added cost 45–46 → 34–36 µs a step, on a spring pass of ~40 µs.
 
 use crate::model::Model;
