@@ -220,12 +220,12 @@ impl<R: Real> ForceScratch<R> {
             // 10,242-vertex ball a 240 KB stream of writes fewer a step).
             par::chunks_pooled(pool, size, &mut self.tri_f, |start, out| {
                 let tris = wind::Tris::Range { start, cross: None };
-                wind::wind_chunk(m, q, qd, air, tris, body_pressure, rho_half, &wind, out)
+                wind::wind_chunk(m, q, air, tris, body_pressure, rho_half, &wind, out)
             });
         } else {
             par::chunks2_pooled(pool, size, &mut self.tri_f, &mut self.tri_cross, |start, out, cross| {
                 let tris = wind::Tris::Range { start, cross: Some(&*cross) };
-                wind::wind_chunk(m, q, qd, air, tris, body_pressure, rho_half, &wind, out)
+                wind::wind_chunk(m, q, air, tris, body_pressure, rho_half, &wind, out)
             });
         }
     }

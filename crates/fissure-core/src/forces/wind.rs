@@ -313,9 +313,9 @@ fn relative_air_impl<R: Real>(q: &[R::V], qd: &[R::V], w: &PreparedWind<R>, star
 pub(crate) enum Air<'a, R: Real> {
     /// Per particle, from [`relative_air`].
     Particles(&'a [R::V]),
-    /// Sampled at each corner here (a few listed triangles: no pass over the particles for them). The same
-    /// formula in the same order as [`relative_air`]: the same bits.
-    Corners,
+    /// Sampled at each corner here from the particles' velocities (a few listed triangles: no pass over the
+    /// particles for them). The same formula in the same order as [`relative_air`]: the same bits.
+    Corners(&'a [R::V]),
 }
 
 crate::isa::wide_kernel! {
@@ -328,7 +328,6 @@ crate::isa::wide_kernel! {
     pub(crate) fn wind_chunk[R: Real](
         m: &Model<R>,
         q: &[R::V],
-        qd: &[R::V],
         air: Air<'_, R>,
         tris: Tris<'_, R>,
         pressure: &[R],
@@ -343,7 +342,6 @@ crate::isa::wide_kernel! {
 fn wind_chunk_impl<R: Real>(
     m: &Model<R>,
     q: &[R::V],
-    qd: &[R::V],
     air: Air<'_, R>,
     tris: Tris<'_, R>,
     pressure: &[R],
@@ -382,7 +380,7 @@ fn wind_chunk_impl<R: Real>(
         let top = idx.iter().fold(0u32, |a, &[i, j, l]| a.max(i).max(j).max(l)) as usize;
         let air_len = match air {
             Air::Particles(a) => a.len(),
-            Air::Corners => qd.len(),
+            Air::Corners(qd) => qd.len(),
         };
         assert!(top < q.len() && top < air_len, "triangle corner out of range");
         let b0 = body[0];
@@ -401,18 +399,21 @@ fn wind_chunk_impl<R: Real>(
             let [a, b, d] = idx[k].map(|i| i as usize);
             // SAFETY: a, b, d <= top < q.len() and the relative air's length (asserted above).
             let (qa, qb, qc) = unsafe { (*q.get_unchecked(a), *q.get_unchecked(b), *q.get_unchecked(d)) };
-            if let Air::Particles(air) = air {
-                let (ra, rb, rc) = unsafe { (*air.get_unchecked(a), *air.get_unchecked(b), *air.get_unchecked(d)) };
-                let r = ((ra + rb + rc) * third).to_array();
-                for e in 0..3 {
-                    rel[e][k] = r[e];
-                }
-            } else {
-                let (va, vb, vc) = unsafe { (*qd.get_unchecked(a), *qd.get_unchecked(b), *qd.get_unchecked(d)) };
-                for (j, (x, v)) in [(qa, va), (qb, vb), (qc, vc)].into_iter().enumerate() {
-                    let (x, v) = (x.to_array(), v.to_array());
+            match air {
+                Air::Particles(air) => {
+                    let (ra, rb, rc) = unsafe { (*air.get_unchecked(a), *air.get_unchecked(b), *air.get_unchecked(d)) };
+                    let r = ((ra + rb + rc) * third).to_array();
                     for e in 0..3 {
-                        (xs[j][e][k], vs[j][e][k]) = (x[e], v[e]);
+                        rel[e][k] = r[e];
+                    }
+                }
+                Air::Corners(qd) => {
+                    let (va, vb, vc) = unsafe { (*qd.get_unchecked(a), *qd.get_unchecked(b), *qd.get_unchecked(d)) };
+                    for (j, (x, v)) in [(qa, va), (qb, vb), (qc, vc)].into_iter().enumerate() {
+                        let (x, v) = (x.to_array(), v.to_array());
+                        for e in 0..3 {
+                            (xs[j][e][k], vs[j][e][k]) = (x[e], v[e]);
+                        }
                     }
                 }
             }
@@ -426,7 +427,7 @@ fn wind_chunk_impl<R: Real>(
                 c[e][k] = cr[e];
             }
         }
-        if let Air::Corners = air {
+        if let Air::Corners(_) = air {
             // Each corner's relative air as `relative_air` forms it, then their mean in corner order.
             for j in 0..3 {
                 for k in 0..SPAN {

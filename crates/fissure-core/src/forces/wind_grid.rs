@@ -164,7 +164,7 @@ impl GridPlan {
         let (pool, size) = (par::is_pooled(self.loose.len()), par::piece(par::CHUNK));
         par::chunks_pooled(pool, size, loose_f, |start, out| {
             let ids = &self.loose[start..start + out.len()];
-            wind::wind_chunk(m, q, qd, wind::Air::Corners, wind::Tris::List(ids), pressure, rho_half, w, out)
+            wind::wind_chunk(m, q, wind::Air::Corners(qd), wind::Tris::List(ids), pressure, rho_half, w, out)
         });
         for &v in &self.loose_particles {
             sums[v as usize] = R::V::ZERO;
