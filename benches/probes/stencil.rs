@@ -179,12 +179,27 @@ unsafe fn sweep(n: usize, r0: usize, r1: usize, q: &[f32], qd: &[f32], qn: &mut 
     }
 }
 
-#[repr(C, align(64))] #[derive(Clone, Copy)] struct A([f32; 16]);
-fn avec(n: usize) -> Vec<f32> {
-    // a Vec<f32> whose buffer is 64-byte aligned (leaked storage; a prototype)
-    let v: Vec<A> = vec![A([0.0; 16]); n.div_ceil(16)];
-    let mut v = std::mem::ManuallyDrop::new(v);
-    unsafe { Vec::from_raw_parts(v.as_mut_ptr() as *mut f32, n, 16 * v.capacity()) }
+/// `n` zeroed `f32`s in a 64-byte aligned buffer (non-temporal stores need the alignment), owned as blocks of 16
+/// and seen as a slice: freed with the layout it was allocated with.
+#[repr(C, align(64))]
+#[derive(Clone, Copy)]
+struct A([f32; 16]);
+struct Aligned(Vec<A>, usize);
+impl std::ops::Deref for Aligned {
+    type Target = [f32];
+    fn deref(&self) -> &[f32] {
+        // SAFETY: `self.1 <= 16 * self.0.len()` initialised `f32`s, contiguous in the blocks.
+        unsafe { std::slice::from_raw_parts(self.0.as_ptr() as *const f32, self.1) }
+    }
+}
+impl std::ops::DerefMut for Aligned {
+    fn deref_mut(&mut self) -> &mut [f32] {
+        // SAFETY: as in `deref`, uniquely borrowed.
+        unsafe { std::slice::from_raw_parts_mut(self.0.as_mut_ptr() as *mut f32, self.1) }
+    }
+}
+fn avec(n: usize) -> Aligned {
+    Aligned(vec![A([0.0; 16]); n.div_ceil(16)], n)
 }
 fn main() {
     let n: usize = std::env::args().nth(1).and_then(|s| s.parse().ok()).unwrap_or(1024);
