@@ -97,14 +97,14 @@ fn surface_caps(@builtin(global_invocation_id) gid: vec3<u32>) {
         c += q_src(openings[first + k]);
     }
     c = c * (1.0 / f32(n));
+    var vol6 = 0.0;
     var cg = vec3<f32>(0.0);
     for (var k = 0u; k < n; k++) {
         let xi = q_src(openings[first + k]);
         let xj = q_src(openings[first + (k + 1u) % n]);
-        cg += cap_edge(xi, xj, c);
+        vol6 += dot(xj - anchor, cross(xi - anchor, c - anchor));
+        cg += cross(xi - xj, c - xj) * (1.0 / 6.0);
     }
-    // The fan's `6 V` about the anchor, `Σ (x_j - a)·((x_i - a) × (c - a)) = 6 (c - a)·Σ e` (`CapPieces::run`).
-    let vol6 = dot(c - anchor, cg) * 6.0;
     cap_data[2u * o] = vec4<f32>(c, vol6);
     cap_data[2u * o + 1u] = vec4<f32>(cg, f32(n));
 }
@@ -205,7 +205,7 @@ fn surface_pressure(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_
 
 // Gradient share of a cap edge `i -> j` about the cap's centre `c` (each end gets it).
 fn cap_edge(xi: vec3<f32>, xj: vec3<f32>, c: vec3<f32>) -> vec3<f32> {
-    return cross(xj - c, xi - c) * (1.0 / 6.0);
+    return cross(xi - xj, c - xj) * (1.0 / 6.0);
 }
 
 // Pass 4 (one invocation per particle; a gas body with openings only): the pressure's force through the caps

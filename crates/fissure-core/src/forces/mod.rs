@@ -107,7 +107,7 @@ impl<R: Real> ForceScratch<R> {
         self.body_p6.resize(m.body_count(), R::ZERO);
         self.body_volume.resize(m.body_count(), R::ZERO);
         self.body_pressure.resize(m.body_count(), R::ZERO);
-        self.vol_partials.resize(nt.div_ceil(VOLUME_ROW).max(1) * m.body_count(), R::ZERO);
+        self.vol_partials.resize(nt.div_ceil(par::CHUNK).max(1) * m.body_count(), R::ZERO);
         self.caps.plan(m);
         // The trigger's inputs cost a write per spring and a gather per particle: only for a model that can break,
         // and the loads only for one that can break by load. The run kernel measures strains alone (each spring's
@@ -156,7 +156,7 @@ impl<R: Real> ForceScratch<R> {
         let nb = m.body_count();
         let pressure = m.has_pressure();
         // Pass A: crosses and per-chunk volume partials.
-        let partial_rows = m.tri_count().div_ceil(VOLUME_ROW).max(1);
+        let partial_rows = m.tri_count().div_ceil(par::CHUNK).max(1);
         let vp = &mut self.vol_partials[..partial_rows * nb];
         let cross_chunk =
             |start: usize, cross: &mut [R::V], part: &mut [R]| cross_chunk(m, q, pressure, start, cross, part);
@@ -168,7 +168,7 @@ impl<R: Real> ForceScratch<R> {
         }
         if !fused_wind && !crosses_formed {
             let pool = par::is_pooled(m.tri_count());
-            let (pc, pv) = (par::Pieces::new(&mut self.tri_cross, VOLUME_ROW), par::Pieces::new(vp, nb));
+            let (pc, pv) = (par::Pieces::new(&mut self.tri_cross, par::CHUNK), par::Pieces::new(vp, nb));
             let nc = pc.count();
             let caps = pressure::CapPieces::new(&mut self.caps);
             // The caps over a gas body's openings are one more piece (with `crosses_formed` they were formed beside
@@ -176,10 +176,10 @@ impl<R: Real> ForceScratch<R> {
             // SAFETY (both): `exec` runs each piece index once; the caps (if any) are the piece after the chunks.
             // Without caps the closure has one kind of piece (see `ForceScratch::springs_and_crosses`).
             if caps.count() == 0 {
-                par::exec(pool, nc, &|c| unsafe { cross_chunk(c * VOLUME_ROW, pc.get(c), pv.get(c)) });
+                par::exec(pool, nc, &|c| unsafe { cross_chunk(c * par::CHUNK, pc.get(c), pv.get(c)) });
             } else {
                 par::exec(pool, nc + 1, &|c| unsafe {
-                    if c < nc { cross_chunk(c * VOLUME_ROW, pc.get(c), pv.get(c)) } else { caps.run(m, q) }
+                    if c < nc { cross_chunk(c * par::CHUNK, pc.get(c), pv.get(c)) } else { caps.run(m, q) }
                 });
             }
         }
@@ -231,14 +231,7 @@ impl<R: Real> ForceScratch<R> {
     }
 }
 
-/// Triangles per row of the volume's partial sums (and per piece of the crosses' pass): fixed, whatever the
-/// threads, so the volumes' bits are too. 512 rather than `par::CHUNK` (2,048): a 2,562-vertex ball's 5,120
-/// triangles made three pieces of unequal size for two threads, and after 100 core splits its caps a fourth;
-/// ten pieces balance. Measured on that ball (a probe stepping it in turn with the split ball, on the team,
-/// 2026-11-27): the surface stage 6.7 → 5.6–5.8 µs a step intact, 9.1 → 7.9–8.1 after the splits.
-pub(crate) const VOLUME_ROW: usize = 512;
-
-/// Pass A of the surface pass over triangles `start .. start + cross.len()` (`start` a multiple of [`VOLUME_ROW`]):
+/// Pass A of the surface pass over triangles `start .. start + cross.len()` (`start` a multiple of `par::CHUNK`):
 /// each triangle's cross `(x1 - x0) × (x2 - x0)` into `cross`, and (with gas, `pressure`) its body's volume terms
 /// summed into `part` (the chunk's row of partials, one per body). A chunk's partial sums are adjacent to the next
 /// chunk's: summed in a register and stored when the body changes (a store per triangle into a line another

@@ -62,7 +62,7 @@ pub(crate) struct Caps<R: Real> {
     pub loops: Vec<[u32; 3]>,
     /// The loops' particles, one loop after another.
     pub rim: Vec<u32>,
-    /// Each loop's term of its body's `6 V` (its cap's fan about the body's anchor), in `loops`' order.
+    /// Each loop edge's term of its body's `6 V` (the edge from `rim[k]` to the loop's next particle).
     pub terms: Vec<R>,
 }
 
@@ -92,18 +92,20 @@ impl<R: Real> Caps<R> {
             self.touched.sort_unstable();
             self.touched.dedup();
         }
-        self.terms.resize(self.loops.len(), R::ZERO);
+        self.terms.resize(self.rim.len(), R::ZERO);
     }
 }
 
 impl<R: Real> ForceScratch<R> {
-    /// Adds the caps' volumes (their loops' terms of `6 V`, formed by [`CapPieces::run`]) to `body_volume`
-    /// (still `6 V`, before the division), loop by loop in the model's order.
+    /// Adds the caps' volumes (their edges' terms of `6 V`, formed by [`CapPieces::run`]) to `body_volume`
+    /// (still `6 V`, before the division), loop by loop and edge by edge in the model's order.
     pub(super) fn add_cap_volumes(&mut self, m: &Model<R>) {
-        for (&[b, ..], &t) in self.caps.loops.iter().zip(&self.caps.terms) {
+        for &[b, start, end] in &self.caps.loops {
             let b = b as usize;
             if m.body_gas_amount[b] > R::ZERO {
-                self.body_volume[b] += t;
+                for &t in &self.caps.terms[start as usize..end as usize] {
+                    self.body_volume[b] += t;
+                }
             }
         }
     }
@@ -137,17 +139,9 @@ impl<'a, R: Real> CapPieces<'a, R> {
         usize::from(!self.loops.is_empty())
     }
 
-    /// Zeroes `g` at the touched particles, then adds each cap's `∂(6V)/∂x / 6`, and writes each loop's term of
-    /// its body's `6 V` (for [`ForceScratch::add_cap_volumes`]). Loops of bodies that leaked all their gas are
-    /// skipped (their gradients stay 0).
-    ///
-    /// One cross product an edge: with `d_k = x_k - c` (`c` the loop's centroid), the fan triangle over the edge
-    /// `i -> j` has `∂(6V)/∂x_i / 6 = ∂(6V)/∂x_j / 6 = e = (d_j × d_i) / 6` (what `(x_i - x_j) × (c - x_j) / 6`
-    /// is, expanded), the centroid gets `Σ e` shared equally by the loop's particles, and the cap's `6 V` about
-    /// the body's anchor `a` is `Σ (x_j - a)·((x_i - a) × (c - a)) = 6 (c - a)·Σ e` (the scalar triple product
-    /// turned, and `Σ x_j × x_i` over a closed loop taken about `c`). With two crosses and a volume term an edge,
-    /// the surface stage of a 2,562-vertex ball after 100 core splits (599 loop edges) cost 4.8 µs a step more
-    /// than the intact ball's on one thread; with this form 2.6–2.7 (a probe stepping both in turn, 2026-11-27).
+    /// Zeroes `g` at the touched particles, then adds each cap's `∂(6V)/∂x / 6`, and writes each loop
+    /// edge's volume term (for [`ForceScratch::add_cap_volumes`]). Loops of bodies that leaked all their gas
+    /// are skipped (their gradients stay 0).
     ///
     /// # Safety
     /// Called once per pass (it writes the whole of `g` and `terms`), only when [`Self::count`] is 1.
@@ -158,43 +152,29 @@ impl<'a, R: Real> CapPieces<'a, R> {
             g[i as usize] = R::V::ZERO;
         }
         let sixth = R::from_f64(1.0 / 6.0);
-        // Each loop's edge gradients, then each particle's two edges and its share in one add (loops are short:
-        // a core split's opening is a one-ring, ~6 particles).
-        let mut edges = [R::V::ZERO; 32];
-        let mut long = Vec::new();
-        for (l, &[b, start, end]) in self.loops.iter().enumerate() {
+        for &[b, start, end] in self.loops {
             let b = b as usize;
             if m.body_gas_amount[b] <= R::ZERO {
-                terms[l] = R::ZERO;
                 continue;
             }
-            let rim = &self.rim[start as usize..end as usize];
-            let n = rim.len();
-            let e = if n <= edges.len() {
-                &mut edges[..n]
-            } else {
-                long.resize(n, R::V::ZERO);
-                &mut long[..]
-            };
-            let inv_n = R::ONE / R::from_f64(n as f64);
+            let (rim, terms) = (&self.rim[start as usize..end as usize], &mut terms[start as usize..end as usize]);
+            let anchor = q[m.body_anchor[b] as usize];
+            let inv_n = R::ONE / R::from_f64(rim.len() as f64);
             let centre = rim.iter().fold(R::V::ZERO, |acc, &i| acc + q[i as usize]) * inv_n;
-            let first = q[rim[0] as usize] - centre;
-            let mut di = first;
-            let mut sum = R::V::ZERO;
-            // Edge `k` runs from `rim[k]` to the next particle (the last closing onto the first).
-            for k in 0..n {
-                let dj = if k + 1 < n { q[rim[k + 1] as usize] - centre } else { first };
-                let ek = dj.cross(di) * sixth;
-                e[k] = ek;
-                sum += ek;
-                di = dj;
+            let mut centre_g = R::V::ZERO;
+            // The loop's edges `i -> j` in order, the last closing onto the first (no `% n` per edge).
+            for (k, (&i, t)) in rim.iter().zip(terms.iter_mut()).enumerate() {
+                let j = if k + 1 < rim.len() { rim[k + 1] } else { rim[0] };
+                let (xi, xj) = (q[i as usize], q[j as usize]);
+                *t = (xj - anchor).dot((xi - anchor).cross(centre - anchor));
+                let e = (xi - xj).cross(centre - xj) * sixth;
+                g[i as usize] += e;
+                g[j as usize] += e;
+                centre_g += e;
             }
-            terms[l] = (centre - q[m.body_anchor[b] as usize]).dot(sum) * R::from_f64(6.0);
-            let share = sum * inv_n;
-            let mut prev = e[n - 1];
-            for (&i, &ek) in rim.iter().zip(e.iter()) {
-                g[i as usize] += (prev + ek) + share;
-                prev = ek;
+            let share = centre_g * inv_n;
+            for &i in rim {
+                g[i as usize] += share;
             }
         }
     }

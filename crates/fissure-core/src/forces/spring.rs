@@ -50,9 +50,9 @@ impl<R: Real> ForceScratch<R> {
 
     fn springs_and_crosses_with<const PROJECTED: bool>(&mut self, m: &Model<R>, q: &[R::V], qd: &[R::V]) {
         let (nb, size) = (m.body_count(), par::piece(par::CHUNK));
-        let rows = m.tri_count().div_ceil(super::VOLUME_ROW).max(1);
+        let rows = m.tri_count().div_ceil(par::CHUNK).max(1);
         let ps = par::Pieces::new(&mut self.spring_f, size);
-        let pc = par::Pieces::new(&mut self.tri_cross, super::VOLUME_ROW);
+        let pc = par::Pieces::new(&mut self.tri_cross, par::CHUNK);
         let pv = par::Pieces::new(&mut self.vol_partials[..rows * nb], nb);
         let (nc, np) = (pc.count(), ps.count());
         let caps = super::pressure::CapPieces::new(&mut self.caps);
@@ -63,7 +63,7 @@ impl<R: Real> ForceScratch<R> {
             // vertices, no openings) took 5 µs more a step (harness `terms`, 2026-11-25).
             par::exec(false, nc + np, &|k| unsafe {
                 if k < nc {
-                    super::cross_chunk(m, q, true, k * super::VOLUME_ROW, pc.get(k), pv.get(k))
+                    super::cross_chunk(m, q, true, k * par::CHUNK, pc.get(k), pv.get(k))
                 } else {
                     let p = k - nc;
                     spring_chunk_dispatch::<R, PROJECTED, false>(m, q, qd, p * size, ps.get(p), None, &mut [])
@@ -72,7 +72,7 @@ impl<R: Real> ForceScratch<R> {
         } else {
             par::exec(false, nc + np + 1, &|k| unsafe {
                 if k < nc {
-                    super::cross_chunk(m, q, true, k * super::VOLUME_ROW, pc.get(k), pv.get(k))
+                    super::cross_chunk(m, q, true, k * par::CHUNK, pc.get(k), pv.get(k))
                 } else if k < nc + np {
                     let p = k - nc;
                     spring_chunk_dispatch::<R, PROJECTED, false>(m, q, qd, p * size, ps.get(p), None, &mut [])
