@@ -48,8 +48,9 @@
 //! `h` apart and caps their moves, whichever side they are on, and the crossing lasts until the motion parts them
 //! (in the fracture scene, a block and the ball's membrane flattened in one plane on the floor stayed crossed to
 //! the end). Once parted, they are kept apart. `tests/contact_scenes.rs` excuses such pairs from the birth step
-//! until they part, and no others. Seen first on 2026-11-27, when a rounding change in the pressure's caps moved
-//! the fracture scene's trajectory so that a core block broke off where the collapsed ball lay folded.
+//! until they part, and no others. Seen first on 2026-11-27, when a rounding change tried in the pressure's caps
+//! (not kept) moved the fracture scene's trajectory so that a core block broke off where the collapsed ball lay
+//! folded; the scene's own trajectory has none, so the test's excuse is there for trajectories that do.
 //!
 //! On the GPU (`fissure-gpu`, `shaders/contact.wgsl`) the same model runs with two differences, both for a machine
 //! of thousands of threads: the grids are built at every substep (a counting sort with u32 atomics, no Verlet
