@@ -6,8 +6,9 @@
 //! One more exception, which contact cannot avoid: a body without self-contact may cross itself (the fracture
 //! scene's torn ball, flattened on the floor, lies in layers in one plane), and a piece that breaks off where it
 //! does starts out crossing its parent. Such pairs are recorded at the step the piece is born (pairs of the
-//! piece and its parent that cross then) and excused until they part; from then on they are held like any other.
-//! A crossing born between a piece and anything else (its siblings, other bodies) is not excused.
+//! piece and its parent, or pieces of one parent born in the same step, that cross then) and excused until they
+//! part; from then on they are held like any other. A crossing between a piece and anything else (pieces that
+//! broke off earlier, other bodies) is not excused.
 
 use fissure::scene::Scene;
 use fissure::*;
