@@ -86,17 +86,22 @@ fn ball(subdivisions: u32, order: Order, breakable: bool) -> Model<f32> {
     b.finalize().unwrap()
 }
 
+/// µs per step over `steps` steps.
+fn run(w: &mut World<f32>, steps: usize) -> f64 {
+    let t0 = Instant::now();
+    for _ in 0..steps {
+        w.step(DT).unwrap();
+    }
+    t0.elapsed().as_secs_f64() / steps as f64 * 1e6
+}
+
 /// µs per step over `steps` steps after 200 warm-up steps.
 fn time_world(w: &mut World<f32>, steps: usize) -> f64 {
     for _ in 0..200 {
         w.step(DT).unwrap();
     }
     w.reset_timers();
-    let t0 = Instant::now();
-    for _ in 0..steps {
-        w.step(DT).unwrap();
-    }
-    t0.elapsed().as_secs_f64() / steps as f64 * 1e6
+    run(w, steps)
 }
 
 /// `a` and `b` stepped in turn, `rounds` times `steps` steps each, both from the states they held on entry (so
@@ -106,13 +111,6 @@ fn time_world(w: &mut World<f32>, steps: usize) -> f64 {
 fn alternated(a: &mut World<f32>, b: &mut World<f32>, rounds: usize, steps: usize) -> (f64, f64, f64) {
     let (sa, sb) = (a.state.clone(), b.state.clone());
     let (mut best_a, mut best_b, mut ratios) = (f64::INFINITY, f64::INFINITY, Vec::new());
-    let time = |w: &mut World<f32>| {
-        let t0 = Instant::now();
-        for _ in 0..steps {
-            w.step(DT).unwrap();
-        }
-        t0.elapsed().as_secs_f64() / steps as f64 * 1e6
-    };
     for r in 0..rounds {
         a.state = sa.clone();
         b.state = sb.clone();
@@ -120,7 +118,7 @@ fn alternated(a: &mut World<f32>, b: &mut World<f32>, rounds: usize, steps: usiz
             a.reset_timers();
             b.reset_timers();
         }
-        let (ta, tb) = (time(a), time(b));
+        let (ta, tb) = (run(a, steps), run(b, steps));
         best_a = best_a.min(ta);
         best_b = best_b.min(tb);
         ratios.push(tb / ta);

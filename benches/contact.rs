@@ -5,31 +5,12 @@
 //! Run: `cargo bench --bench contact`. `FISSURE_BENCH_QUICK=1` shrinks the cloth to 32 × 32 so CI can run it fast.
 
 use criterion::{Criterion, criterion_group, criterion_main};
-use fissure::glam::{DVec3, Vec3};
 use fissure::*;
 use std::hint::black_box;
 use std::time::Instant;
 
 fn fold_model(n: usize, contact: bool) -> Model<f32> {
-    let mut b = ModelBuilder::new();
-    b.add_collider(Collider::ball(Vec3::new(0.0, 0.3, 0.0), 0.3).with_friction(0.5).with_restitution(0.0)).unwrap();
-    b.add_collider(Collider::ground(0.0).with_restitution(0.0)).unwrap();
-    let spacing = 0.01 * 128.0 / n as f64;
-    let w = spacing * (n - 1) as f64;
-    let opts = ClothOptions {
-        mass: Mass::AreaDensity(0.25),
-        stiffness: Stiffness::Membrane(400.0),
-        shear: Some(Stiffness::Membrane(100.0)),
-        bending: Some(Stiffness::Membrane(1.0)),
-        damping: Damping::Ratio(0.2),
-        ..Default::default()
-    };
-    let place = |q: DVec3| DVec3::new(q.x - w / 2.0 + 0.05, 0.75, q.y + w / 2.0);
-    let h = b.add_cloth_grid(n, n, spacing, place, &opts).unwrap();
-    if contact {
-        b.set_contact(h.index, Contact { self_collision: true, friction: 0.4, ..Default::default() }).unwrap();
-    }
-    b.finalize().unwrap()
+    fissure::scenes::folding_cloth(n, contact).unwrap().finalize().unwrap()
 }
 
 fn bench(c: &mut Criterion) {

@@ -101,3 +101,28 @@ pub fn benchmark_cloth(n: usize) -> Result<ModelBuilder, ModelError> {
     b.add_cloth_grid(n, n, 0.01, |p| DVec3::new(p.x, 1.0, p.y), &opts)?;
     Ok(b)
 }
+
+/// Issue 16's contact benchmark (`benches/contact.rs`): an `n × n` cloth 1.27 m wide (1 cm spacing at n = 128),
+/// 0.25 kg/m², at y = 0.75 above a ball collider (radius 0.3 m) and the floor, which it falls onto and folds
+/// over; `self_collision` switches its contact with itself on (friction 0.4, the default thickness).
+pub fn folding_cloth(n: usize, self_collision: bool) -> Result<ModelBuilder, ModelError> {
+    let mut b = ModelBuilder::new();
+    b.add_collider(Collider::ball(Vec3::new(0.0, 0.3, 0.0), 0.3).with_friction(0.5).with_restitution(0.0))?;
+    b.add_collider(Collider::ground(0.0).with_restitution(0.0))?;
+    let spacing = 0.01 * 128.0 / n as f64;
+    let w = spacing * (n - 1) as f64;
+    let opts = ClothOptions {
+        mass: Mass::AreaDensity(0.25),
+        stiffness: Stiffness::Membrane(400.0),
+        shear: Some(Stiffness::Membrane(100.0)),
+        bending: Some(Stiffness::Membrane(1.0)),
+        damping: Damping::Ratio(0.2),
+        ..Default::default()
+    };
+    let place = |q: DVec3| DVec3::new(q.x - w / 2.0 + 0.05, 0.75, q.y + w / 2.0);
+    let h = b.add_cloth_grid(n, n, spacing, place, &opts)?;
+    if self_collision {
+        b.set_contact(h.index, Contact { self_collision: true, friction: 0.4, ..Default::default() })?;
+    }
+    Ok(b)
+}

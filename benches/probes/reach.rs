@@ -1,7 +1,7 @@
 //! How many contact pairs a per-pair reach would keep (issue 16's fold bench; not built by cargo:
 //! `benches/RESULTS.md`, issue 16's section, "How much a per-pair reach would remove", has what it counted).
 //!
-//! Steps the fold bench's model (`benches/contact.rs`: a 128² cloth with self-collision dropped onto a ball and
+//! Steps the fold bench's model (`fissure::scenes::folding_cloth`, as `benches/contact.rs` builds it: a 128² cloth with self-collision dropped onto a ball and
 //! the floor) for `warm` steps of 2e-4 s, takes each particle's move over the next step (halved: the bench's
 //! substep guard makes two substeps a step), and counts by brute force over a hash grid every vertex–triangle and
 //! edge–edge pair without a shared vertex that lies within the pass's global reach `r = h + d_max / GAMMA` and its
@@ -11,34 +11,14 @@
 //! minute on the development VM; remove the copy afterwards).
 use fissure::contact::geometry::{closest_on_segments, closest_on_triangle};
 use fissure::contact::grid::HashGrid;
-use fissure::glam::{DVec3, Vec3};
+use fissure::glam::DVec3;
 use fissure::*;
 use std::collections::BTreeSet;
-
-fn fold_model(n: usize) -> Model<f32> {
-    let mut b = ModelBuilder::new();
-    b.add_collider(Collider::ball(Vec3::new(0.0, 0.3, 0.0), 0.3).with_friction(0.5).with_restitution(0.0)).unwrap();
-    b.add_collider(Collider::ground(0.0).with_restitution(0.0)).unwrap();
-    let spacing = 0.01 * 128.0 / n as f64;
-    let w = spacing * (n - 1) as f64;
-    let opts = ClothOptions {
-        mass: Mass::AreaDensity(0.25),
-        stiffness: Stiffness::Membrane(400.0),
-        shear: Some(Stiffness::Membrane(100.0)),
-        bending: Some(Stiffness::Membrane(1.0)),
-        damping: Damping::Ratio(0.2),
-        ..Default::default()
-    };
-    let place = |q: DVec3| DVec3::new(q.x - w / 2.0 + 0.05, 0.75, q.y + w / 2.0);
-    let h = b.add_cloth_grid(n, n, spacing, place, &opts).unwrap();
-    b.set_contact(h.index, Contact { self_collision: true, friction: 0.4, ..Default::default() }).unwrap();
-    b.finalize().unwrap()
-}
 
 fn main() {
     let n: usize = std::env::args().nth(1).map(|s| s.parse().unwrap()).unwrap_or(128);
     let warm: usize = std::env::args().nth(2).map(|s| s.parse().unwrap()).unwrap_or(2500);
-    let m = fold_model(n);
+    let m: Model<f32> = fissure::scenes::folding_cloth(n, true).unwrap().finalize().unwrap();
     let mut s = m.state();
     let mut solver = CpuSolver::<f32>::new(SolverConfig { substep_safety: Some(0.8), ..Default::default() });
     let dt = 2e-4;
