@@ -3,12 +3,14 @@
 //  - at its start (`contact_save`, `contact_edges`, `contact_scan`, `contact_scatter`): the positions are saved and
 //    two hashed uniform grids are built from them by a counting sort with u32 atomics, one of the contact
 //    vertices, one of the midpoints of the contact edges;
-//  - after the integrator and the colliders (`contact_moves` … `contact_apply`): the largest move sets the reach
-//    `r = h_max + d_max / GAMMA`; every vertex–triangle and edge–edge pair closer than `r` at the start is listed
+//  - after the integrator and the colliders (`contact_moves` … `contact_apply`): the largest move sets the search
+//    reach `r = h_max + d_max / GAMMA`; every vertex–triangle and edge–edge pair closer than its own reach
+//    (`pair_reach`: the same with its four particles' largest move) at the start is listed
 //    (`contact_vt`, `contact_ee`, 8 invocations per element); Jacobi iterations solve the normal impulses
 //    (alternating between two sets of totals: all in one workgroup while the pairs are few, else one dispatch
 //    each), then one pass of Coulomb friction;
-//    each particle's move is capped by the displacement bound (`GAMMA` times its nearest pair's gap), which rules
+//    each particle's move is capped by the displacement bound (`GAMMA` times its nearest pair's gap, at most
+//    `GAMMA h_max` plus its own move), which rules
 //    out crossings whatever the impulses did.
 // As on the CPU, an element whose box meets no other body's box (and whose body does not collide with itself)
 // skips the search: away from contacts an element costs one box test per body.
@@ -72,6 +74,17 @@ fn bucket_of(c: vec3<i32>) -> u32 {
 // The step's reach: a particle with nothing within it moves at most `GAMMA r`, so the bound never caps it.
 fn reach() -> f32 {
     return params.contact_f.x + bitcast<f32>(atomicLoad(&c_ctl[1])) / GAMMA;
+}
+
+// A contact particle's move this substep (`contact_moves` keeps it beside its start, in `c_x0[i].w`), and a pair's
+// own reach: the thickness plus its particles' largest move over GAMMA (the CPU's `near`). The grids are searched
+// at the step's reach, the largest of them.
+fn moved(i: u32) -> f32 {
+    return c_x0[i].w;
+}
+
+fn pair_reach(p: vec4<u32>) -> f32 {
+    return params.contact_f.x + max(max(moved(p.x), moved(p.y)), max(moved(p.z), moved(p.w))) / GAMMA;
 }
 
 fn fixed(v: f32) -> i32 {
@@ -269,7 +282,9 @@ fn contact_scatter(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_w
 fn contact_moves(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>) {
     let i = flat_index(gid, nwg);
     if (i >= particle_count() || c_part[i].z == 0u) { return; }
-    atomicMax(&c_ctl[1], bitcast<u32>(length(q_dst(i) - c_x0[i].xyz)));
+    let d = length(q_dst(i) - c_x0[i].xyz);
+    c_x0[i].w = d;
+    atomicMax(&c_ctl[1], bitcast<u32>(d));
 }
 
 // The cells of the box [lo, hi]: how many to visit (1, meaning every item of the grid, when the box spans more
@@ -344,7 +359,7 @@ fn contact_vt(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgr
             let w = closest_on_triangle(p, xa, xb, xc);
             let diff = p - (w.x * xa + w.y * xb + w.z * xc);
             let d = length(diff);
-            if (d >= r) { continue; }
+            if (d >= r || d >= pair_reach(vec4<u32>(v, tv.xyz))) { continue; }
             var n = cross(xb - xa, xc - xa);
             if (d > 1e-12) { n = diff / d; } else if (dot(n, n) > 0.0) { n = normalize(n); } else { n = vec3<f32>(0.0, 1.0, 0.0); }
             push_pair(vec4<u32>(v, tv.xyz), vec4<f32>(1.0, -w), n, d, pv.y, tv.w);
@@ -391,7 +406,7 @@ fn contact_ee(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgr
             let st = closest_on_segments(p, q, u, w);
             let diff = mix(p, q, st.x) - mix(u, w, st.y);
             let d = length(diff);
-            if (d >= r) { continue; }
+            if (d >= r || d >= pair_reach(vec4<u32>(ea, eb))) { continue; }
             var n = cross(q - p, w - u);
             if (d > 1e-12) { n = diff / d; } else if (dot(n, n) > 0.0) { n = normalize(n); } else { n = vec3<f32>(0.0, 1.0, 0.0); }
             push_pair(vec4<u32>(ea, eb), vec4<f32>(1.0 - st.x, st.x, st.y - 1.0, -st.y), n, d, body, fb);
@@ -420,16 +435,19 @@ fn contact_args() {
     c_args[2] = 1u;
 }
 
-// Each pair's particles: the displacement bound (GAMMA times the nearest gap) and how many pairs each is in.
+// Each pair's particles: the displacement bound (GAMMA times the nearest gap, and at most `GAMMA h + d_i`, which
+// keeps particle `i` within GAMMA of the gap of every pair it is in but not within reach) and how many pairs each
+// is in.
 @compute @workgroup_size(64)
 fn contact_prep(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>) {
     let k = flat_index(gid, nwg);
     if (k >= pair_count()) { return; }
     if (k == 0u) { atomicAdd(&c_ctl[5], pair_count()); }
     let pr = c_pairs[k];
-    let b = bitcast<i32>(GAMMA * pr.nd.w);
+    let b = GAMMA * pr.nd.w;
     for (var m = 0u; m < 4u; m++) {
-        atomicMin(&c_acc[ACC * pr.p[m] + 6u], b);
+        let start = GAMMA * params.contact_f.x + moved(pr.p[m]);
+        atomicMin(&c_acc[ACC * pr.p[m] + 6u], bitcast<i32>(min(b, start)));
         atomicAdd(&c_acc[ACC * pr.p[m] + 7u], 1);
     }
 }

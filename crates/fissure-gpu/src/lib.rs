@@ -84,7 +84,7 @@ pub const KERNEL_BINDINGS: [(&str, &[u32]); 28] = [
     ("contact_vt", &[3, 7, 20, 21, 23, 25, 26, 29]),
     ("contact_ee", &[3, 20, 21, 22, 23, 25, 26, 29]),
     ("contact_args", &[26, 28]),
-    ("contact_prep", &[25, 26, 27]),
+    ("contact_prep", &[23, 25, 26, 27]),
     ("contact_jacobi_even", &CONTACT_IMPULSE),
     ("contact_jacobi_odd", &CONTACT_IMPULSE),
     ("contact_jacobi_fused", &CONTACT_IMPULSE),

@@ -32,9 +32,14 @@
 //!    continuous collision detection because it is exact without root finding (a CCD cubic on a steep
 //!    trajectory is where robust implementations spend their care), costs one distance per candidate pair,
 //!    is the same on the GPU, and guarantees the invariant the tests check (no two triangles ever cross). It
-//!    rarely binds: the search radius is chosen so that a particle with nothing near moves freely, and the
-//!    impulses keep pairs at `h`, where the cap is `GAMMA h` per step (metres per second of sliding at the
-//!    scenes' steps). A capped particle's velocity is scaled down with its move (energy only decreases).
+//!    rarely binds: a pair is *within reach* when it is closer than its own reach `h + d_P / GAMMA` (`d_P`
+//!    the largest move this step of its four particles), so a particle with nothing within reach moves freely,
+//!    and a particle's bound starts at `GAMMA h + d_i`, which keeps it within `GAMMA` of the gap of every pair it
+//!    is in but not within reach; the impulses keep pairs at `h`, where the cap is `GAMMA h` per step (metres
+//!    per second of sliding at the scenes' steps). A capped particle's velocity is scaled down with its move
+//!    (energy only decreases). The reach is the pair's own, not the fastest particle's anywhere (as it was until
+//!    2026-11-27): on the folding 128² cloth one corner moves 20× the median particle, and with one reach for all
+//!    the pairs within it were 8,145 a step where their own reaches keep 1,333 (`cargo bench --bench contact`).
 //! 4. **The colliders again**, for the particles the pass moved (their pass ran before this one): a push from
 //!    another body can press a particle resting on the ground into it. The collider's push is taken when the
 //!    particle's whole move stays within its bound, so the no-crossing guarantee holds; otherwise the particle

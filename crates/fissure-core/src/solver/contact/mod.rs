@@ -107,7 +107,7 @@ struct Pair {
 pub struct ContactStats {
     /// Candidate pairs in the Verlet list (vertex–triangle + edge–edge).
     pub candidates: usize,
-    /// Pairs within the search radius this step.
+    /// Pairs within their reach this step (see `near`).
     pub near: usize,
     /// Pairs that took an impulse.
     pub pushed: usize,
@@ -133,6 +133,9 @@ pub(super) struct ContactScratch<R: Real> {
     el: Option<Elements>,
     /// Positions at the start of the substep.
     pub x0: Vec<R::V>,
+    /// Each contact particle's move this step \[m\] (`|q - x0|`; the others' entries are stale): a pair's reach
+    /// is the thickness plus its particles' largest move over `GAMMA`.
+    moved: Vec<f64>,
     /// Positions when the candidates were found, and their search radius (0: none yet).
     xb: Vec<R::V>,
     radius: f64,
@@ -170,12 +173,16 @@ impl<R: Real> ContactScratch<R> {
         self.radius = 0.0;
     }
 
-    /// The candidates closer than `r` at `x0`, as pairs with weights and normals.
-    fn near(&mut self, m: &Model<R>, r: f64) {
+    /// The candidates closer than their reach at `x0`, as pairs with weights and normals. A pair's reach is
+    /// `h + d_P / GAMMA`, `h` the largest thickness and `d_P` the largest move this step of its four particles:
+    /// a pair farther apart is not closed in by its particles' moves (each at most `GAMMA (reach - h)`) nor by
+    /// the bound's start (`GAMMA h + d_i`, see `CpuSolver::contact`), by more than `2 GAMMA` of its gap.
+    fn near(&mut self, m: &Model<R>, h_max: f64) {
         let el = self.el.as_ref().expect("elements prepared");
-        let x0 = &self.x0;
+        let (x0, moved) = (&self.x0, &self.moved);
         let x = |i: u32| x0[i as usize].to_dvec3();
-        let pair = |p: [u32; 4], w: [f64; 4], fallback: DVec3, b: [u32; 2]| {
+        let reach = |p: [u32; 4]| h_max + p.iter().fold(0.0f64, |a, &i| a.max(moved[i as usize])) / GAMMA;
+        let pair = |p: [u32; 4], w: [f64; 4], fallback: DVec3, b: [u32; 2], r: f64| {
             let diff: DVec3 = (0..4).map(|k| w[k] * x(p[k])).sum();
             let d = diff.length();
             if d >= r {
@@ -190,29 +197,31 @@ impl<R: Real> ContactScratch<R> {
         };
         let edges = &el.edges;
         // Boxes first: most candidates are not within `r` this step, and a box test is cheaper than closest points.
-        let apart = |lo: DVec3, hi: DVec3, lo2: DVec3, hi2: DVec3| (lo2 - hi).max(lo - hi2).max_element() >= r;
+        let apart = |lo: DVec3, hi: DVec3, lo2: DVec3, hi2: DVec3, r: f64| (lo2 - hi).max(lo - hi2).max_element() >= r;
         let vt_pair = |&[v, t]: &[u32; 2]| {
             let tv = m.tri_indices[t as usize];
+            let r = reach([v, tv[0], tv[1], tv[2]]);
             let [a, b, cc] = tv.map(x);
             let (p, n) = (x(v), (b - a).cross(cc - a));
-            if apart(p, p, a.min(b).min(cc), a.max(b).max(cc)) || plane_apart(p, a, n, r) {
+            if apart(p, p, a.min(b).min(cc), a.max(b).max(cc), r) || plane_apart(p, a, n, r) {
                 return None;
             }
             let w = closest_on_triangle(p, a, b, cc);
             let b2 = [m.particle_body[v as usize], m.tri_body[t as usize]];
-            pair([v, tv[0], tv[1], tv[2]], [1.0, -w[0], -w[1], -w[2]], n, b2)
+            pair([v, tv[0], tv[1], tv[2]], [1.0, -w[0], -w[1], -w[2]], n, b2, r)
         };
         let ee_pair = |&[e, f]: &[u32; 2]| {
             let ([a0, a1], [b0, b1]) = (edges[e as usize], edges[f as usize]);
+            let r = reach([a0, a1, b0, b1]);
             let (p, q, u, w) = (x(a0), x(a1), x(b0), x(b1));
-            if apart(p.min(q), p.max(q), u.min(w), u.max(w))
+            if apart(p.min(q), p.max(q), u.min(w), u.max(w), r)
                 || segments_apart(0.5 * (p + q), 0.5 * (q - p), 0.5 * (u + w), 0.5 * (w - u), r)
             {
                 return None;
             }
             let (s, t) = closest_on_segments(p, q, u, w);
             let b2 = [m.particle_body[a0 as usize], m.particle_body[b0 as usize]];
-            pair([a0, a1, b0, b1], [1.0 - s, s, t - 1.0, -t], (q - p).cross(w - u), b2)
+            pair([a0, a1, b0, b1], [1.0 - s, s, t - 1.0, -t], (q - p).cross(w - u), b2, r)
         };
         // Vertex–triangle pairs, then edge–edge pairs, each in their list's order.
         self.pairs.clear();
@@ -331,8 +340,17 @@ impl<R: Real> CpuSolver<R> {
             blown.store(true, Ordering::Relaxed);
             return;
         }
-        // A particle with nothing within `r` moves at most d_max <= GAMMA r: the bound never caps it.
+        // The step's largest reach: no pair farther apart is within its own reach (see `near`).
         let r = h_max + d_max / GAMMA;
+        {
+            let n = m.particle_count();
+            let ContactScratch { moved, x0, el, .. } = c;
+            moved.resize(n, 0.0);
+            for &i in &el.as_ref().expect("just set").particles {
+                let i = i as usize;
+                moved[i] = (q[i].to_dvec3() - x0[i].to_dvec3()).length();
+            }
+        }
         // Pairs missing from the list were `radius` apart when it was built and have closed in by at most
         // 2 drift since; when that is not enough, by at most what their bodies moved relative to each other
         // (a piece riding on the ball it came from, a cloth falling as a whole, does not force a rebuild).
@@ -352,19 +370,21 @@ impl<R: Real> CpuSolver<R> {
         if !valid && !refreshed {
             c.build(m, SKIN * r + h_max);
         }
-        c.near(m, r);
+        c.near(m, h_max);
         let n = m.particle_count();
         if c.dv.len() != n {
             c.dv = vec![DVec3::ZERO; n];
             c.bound = vec![f64::INFINITY; n];
         }
-        let ContactScratch { pairs, dv, bound, touched, x0, hot, .. } = c;
+        let ContactScratch { pairs, dv, bound, touched, x0, hot, moved, .. } = c;
         touched.clear();
+        // Each particle's bound starts at `GAMMA h + d_i`: every pair it is in but not within reach is at least
+        // `h + d_i / GAMMA` apart (its reach), so the cap keeps the particle within `GAMMA` of that pair's gap.
         for p in pairs.iter() {
             for &i in &p.p {
                 if bound[i as usize] == f64::INFINITY {
                     touched.push(i);
-                    bound[i as usize] = GAMMA * r;
+                    bound[i as usize] = GAMMA * h_max + moved[i as usize];
                 }
                 bound[i as usize] = bound[i as usize].min(GAMMA * p.d);
             }
