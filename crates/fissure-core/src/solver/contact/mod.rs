@@ -133,8 +133,8 @@ pub(super) struct ContactScratch<R: Real> {
     el: Option<Elements>,
     /// Positions at the start of the substep.
     pub x0: Vec<R::V>,
-    /// Each contact particle's move this step \[m\] (`|q - x0|`; the others' entries are stale): a pair's reach
-    /// is the thickness plus its particles' largest move over `GAMMA`.
+    /// Each contact particle's squared move this step \[m²\] (`|q - x0|²`; the others' entries are stale): a
+    /// pair's reach is the thickness plus its particles' largest move over `GAMMA`.
     moved: Vec<f64>,
     /// Positions when the candidates were found, and their search radius (0: none yet).
     xb: Vec<R::V>,
@@ -181,7 +181,7 @@ impl<R: Real> ContactScratch<R> {
         let el = self.el.as_ref().expect("elements prepared");
         let (x0, moved) = (&self.x0, &self.moved);
         let x = |i: u32| x0[i as usize].to_dvec3();
-        let reach = |p: [u32; 4]| h_max + p.iter().fold(0.0f64, |a, &i| a.max(moved[i as usize])) / GAMMA;
+        let reach = |p: [u32; 4]| h_max + p.iter().fold(0.0f64, |a, &i| a.max(moved[i as usize])).sqrt() / GAMMA;
         let pair = |p: [u32; 4], w: [f64; 4], fallback: DVec3, b: [u32; 2], r: f64| {
             let diff: DVec3 = (0..4).map(|k| w[k] * x(p[k])).sum();
             let d = diff.length();
@@ -228,6 +228,23 @@ impl<R: Real> ContactScratch<R> {
         let bufs = &mut self.pair_pieces;
         extend_chunks(&mut self.pairs, bufs, &self.vt, PAR_NEAR, |c, o| o.extend(c.iter().filter_map(vt_pair)));
         extend_chunks(&mut self.pairs, bufs, &self.ee, PAR_NEAR, |c, o| o.extend(c.iter().filter_map(ee_pair)));
+    }
+}
+
+/// Writes to a slice's entries from several threads, each entry from at most one (see its use).
+#[derive(Clone, Copy)]
+struct Scatter(*mut f64);
+
+// SAFETY: `Scatter` is used only where each entry is written by one thread and not read during the writes.
+unsafe impl Send for Scatter {}
+unsafe impl Sync for Scatter {}
+
+impl Scatter {
+    /// # Safety
+    /// `i` is in bounds and no other thread reads or writes entry `i` during the call.
+    unsafe fn write(self, i: usize, v: f64) {
+        // SAFETY: as the caller promises.
+        unsafe { *self.0.add(i) = v };
     }
 }
 
@@ -308,12 +325,18 @@ impl<R: Real> CpuSolver<R> {
         // One sweep: the largest move this step, the largest drift since the candidates were found, and each
         // body's box of drifts (with few bodies).
         let boxes = if fresh && m.body_count() <= CLOSING_BODIES { m.body_count() } else { 0 };
+        c.moved.resize(m.particle_count(), 0.0);
+        let out = Scatter(c.moved.as_mut_ptr());
         let moves = |ps: &[u32]| {
             let mut mv = Moves::new(boxes);
             for &i in ps {
                 let i = i as usize;
                 let x = x0[i].to_dvec3();
-                mv.d2 = mv.d2.max((q[i].to_dvec3() - x).length_squared());
+                let d2 = (q[i].to_dvec3() - x).length_squared();
+                // SAFETY: `moved` has an entry per particle, and `el.particles` lists each particle once, so no
+                // two calls (in parallel chunks of it) write the same entry; nothing reads `moved` meanwhile.
+                unsafe { out.write(i, d2) };
+                mv.d2 = mv.d2.max(d2);
                 if fresh {
                     let drift = x - xb[i].to_dvec3();
                     mv.r2 = mv.r2.max(drift.length_squared());
@@ -342,15 +365,6 @@ impl<R: Real> CpuSolver<R> {
         }
         // The step's largest reach: no pair farther apart is within its own reach (see `near`).
         let r = h_max + d_max / GAMMA;
-        {
-            let n = m.particle_count();
-            let ContactScratch { moved, x0, el, .. } = c;
-            moved.resize(n, 0.0);
-            for &i in &el.as_ref().expect("just set").particles {
-                let i = i as usize;
-                moved[i] = (q[i].to_dvec3() - x0[i].to_dvec3()).length();
-            }
-        }
         // Pairs missing from the list were `radius` apart when it was built and have closed in by at most
         // 2 drift since; when that is not enough, by at most what their bodies moved relative to each other
         // (a piece riding on the ball it came from, a cloth falling as a whole, does not force a rebuild).
@@ -384,7 +398,7 @@ impl<R: Real> CpuSolver<R> {
             for &i in &p.p {
                 if bound[i as usize] == f64::INFINITY {
                     touched.push(i);
-                    bound[i as usize] = GAMMA * h_max + moved[i as usize];
+                    bound[i as usize] = GAMMA * h_max + moved[i as usize].sqrt();
                 }
                 bound[i as usize] = bound[i as usize].min(GAMMA * p.d);
             }
