@@ -113,11 +113,21 @@ pub(crate) struct Pick {
     steps: u64,
     /// The way the last steps went (a switch's first step is left out: see [`Pick::record`]).
     last: Option<bool>,
+    /// A way set from outside (benchmarks that compare models: see `CpuSolver::force_team`); `None`: measured.
+    forced: Option<bool>,
 }
 
 impl Default for Pick {
     fn default() -> Self {
-        Pick { ring: [[0.0; Pick::TRY as usize]; 2], len: [0; 2], pos: [0; 2], team_best: true, steps: 0, last: None }
+        Pick {
+            ring: [[0.0; Pick::TRY as usize]; 2],
+            len: [0; 2],
+            pos: [0; 2],
+            team_best: true,
+            steps: 0,
+            last: None,
+            forced: None,
+        }
     }
 }
 
@@ -127,6 +137,9 @@ impl Pick {
 
     /// Whether the next steps go to the team, and how many at most before asking again.
     pub(crate) fn choose(&self) -> (bool, usize) {
+        if let Some(team) = self.forced {
+            return (team, usize::MAX);
+        }
         let full = Self::TRY as usize;
         if self.len[1] < full {
             // Measure the team first, then one thread.
@@ -140,6 +153,16 @@ impl Pick {
             return (!self.team_best, (Self::TRY - phase) as usize);
         }
         (self.team_best, (Self::PERIOD - phase) as usize)
+    }
+
+    /// The way the measurements favour, once both ways have been timed (`None` before, or when forced).
+    pub(crate) fn chosen(&self) -> Option<bool> {
+        (self.forced.is_none() && self.len == [Self::TRY as usize; 2]).then_some(self.team_best)
+    }
+
+    /// Steps on the team (`Some(true)`), on one thread or the pool (`Some(false)`), or as measured (`None`).
+    pub(crate) fn force(&mut self, team: Option<bool>) {
+        self.forced = team;
     }
 
     /// Records `n` steps on the team (or not) that took `secs`; the first step after a switch is left out (it

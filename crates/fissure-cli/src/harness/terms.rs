@@ -75,7 +75,7 @@ pub fn run(r: &mut Report) -> Result<(), String> {
     let _ = writeln!(
         r.md,
         "\n### Cost per term\n\nThe same body with one term added at a time: symplectic Euler, f32, all threads, \
-         {steps} steps after 10 warm-up steps, best of 3 runs (the terms' runs interleaved), µs per step in total and per stage (`StageTimers`; \
+         {steps} steps after 10 warm-up steps, best of 3 runs (the terms' runs interleaved, each body's runs stepping one way: below the table), µs per step in total and per stage (`StageTimers`; \
          fracture is the fracture pass and the solver's load sums outside the gather); `added` is what the term adds \
          to the whole step ÷ the plain body's spring pass (issue 15's goals: wind, pressure ≤ 1, colliders ≤ 0.3, \
          fracture ≤ 0.2). Cloth: {0}² particles at 1 cm, 1 g each, default cloth springs. Ball: icosphere \
@@ -85,6 +85,7 @@ pub fn run(r: &mut Report) -> Result<(), String> {
         if r.quick { 642 } else { 10242 },
     );
     let mut rows = Vec::new();
+    let mut modes = Vec::new();
     for body in ["cloth", "ball"] {
         let mut plain = (0.0, 1.0);
         let terms: Vec<Term> = [Term::Plain, Term::Pressure, Term::Wind, Term::Colliders, Term::Fracture]
@@ -102,6 +103,29 @@ pub fn run(r: &mut Report) -> Result<(), String> {
             }
             worlds.push(world);
         }
+        // Every world of the body steps the way the plain body's solver chose. Each solver measures for itself
+        // whether the spinning team pays (`team::Pick`: both ways timed over its first ~100 steps), and on a host
+        // where the two cost about the same, two worlds may step different ways, which their difference would
+        // then measure (2026-11-27: a ball with colliders read 1.46× its spring pass in one run of this section
+        // and 0.10–0.13× in three).
+        let plain_world = &mut worlds[0];
+        for _ in 0..120 {
+            plain_world.step(dt).map_err(|e| e.to_string())?;
+        }
+        let team = plain_world.cpu_solver().and_then(|s| s.team_chosen());
+        for world in &mut worlds {
+            if let Some(s) = world.cpu_solver() {
+                s.force_team(team);
+            }
+        }
+        modes.push(format!(
+            "{body}: {}",
+            match team {
+                Some(true) => "every run on the spinning team, as the plain body's solver chose",
+                Some(false) => "every run without the spinning team, as the plain body's solver chose",
+                None => "each solver stepping as it measured (no team, or no choice made)",
+            }
+        ));
         // Best of three runs, the terms' runs interleaved (plain, pressure, …, plain, …): the machine's neighbours
         // add time, never remove it, and a drift over the section then falls on every term alike instead of on
         // the ones measured last.
@@ -186,6 +210,7 @@ pub fn run(r: &mut Report) -> Result<(), String> {
             }
         }
     }
+    let _ = writeln!(r.md, "\nThreads: {}.", modes.join("; "));
     r.csv("terms.csv", "body,terms,us_per_step,springs_us,surface_us,integrate_us,collide_us,fracture_us", &rows)
         .map_err(|e| e.to_string())?;
     Ok(())

@@ -446,6 +446,24 @@ impl<R: Real> CpuSolver<R> {
         b
     }
 
+    /// Steps on the spinning team (`Some(true)`), without it (`Some(false)`: one thread for a model below the
+    /// pool's size, the pool above it), or as measured (`None`, the default: see `crate::team::Pick`). For
+    /// benchmarks that compare several models in one process: each solver measures for itself, and on a host
+    /// where the two ways cost about the same, two solvers may pick differently and their difference then
+    /// measures the pick, not the models (the harness's cost-per-term section, 2026-11-27: a ball with colliders
+    /// read 1.46× its spring pass in one run and 0.10–0.13× in three). The choice changes no bits.
+    #[doc(hidden)]
+    pub fn force_team(&mut self, team: Option<bool>) {
+        self.team_pick.force(team);
+    }
+
+    /// Whether this solver's measurements favour the team, once it has timed both ways (`None` before that,
+    /// when forced, or where there is no team). See [`CpuSolver::force_team`].
+    #[doc(hidden)]
+    pub fn team_chosen(&self) -> Option<bool> {
+        self.team_pick.chosen()
+    }
+
     /// Substeps the last [`Solver::step`] took (1 unless the stability guard split it).
     pub fn last_substeps(&self) -> usize {
         self.last_substeps
