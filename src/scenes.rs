@@ -126,3 +126,37 @@ pub fn folding_cloth(n: usize, self_collision: bool) -> Result<ModelBuilder, Mod
     }
     Ok(b)
 }
+
+/// Eight coarse balls (5 cm radius, 42 vertices, gas at 500 Pa, each in contact with itself and the others) on the
+/// corners of a 13 cm cube, no gravity, thrown into the middle: the even-numbered ones at `fast` to `2 fast` m/s,
+/// the others at 5 cm/s, their aims jittered by a fixed sequence. A check of contact with slow bodies beside fast
+/// ones (each pair's reach is its own: `fissure_core::contact`'s docs); `tests/contact_scenes.rs` and
+/// `tests/gpu_contact.rs` step it at `fast` = 100 m/s.
+pub fn crowd(fast: f64) -> Result<ModelBuilder, ModelError> {
+    let mut b = ModelBuilder::new();
+    b.gravity(DVec3::ZERO)?;
+    // xorshift64, a fixed sequence in [-1, 1).
+    let mut seed = 0x2545_f491_4f6c_dd1du64;
+    let mut unit = move || {
+        seed ^= seed << 13;
+        seed ^= seed >> 7;
+        seed ^= seed << 17;
+        (seed >> 11) as f64 / (1u64 << 53) as f64 * 2.0 - 1.0
+    };
+    for k in 0..8 {
+        let at = DVec3::new((k & 1) as f64, ((k >> 1) & 1) as f64, (k >> 2) as f64) * 0.13 - DVec3::splat(0.065);
+        let aim = (-at).normalize() + 0.3 * DVec3::new(unit(), unit(), unit());
+        let speed = if k % 2 == 0 { fast * (1.0 + unit().abs()) } else { 0.05 };
+        let opts = SoftBodyOptions {
+            mass: Mass::Total(0.05),
+            stiffness: Stiffness::Membrane(800.0),
+            damping: Damping::Ratio(0.1),
+            gas: Gas::Pressure(500.0),
+            velocity: speed * aim.normalize(),
+            ..Default::default()
+        };
+        let h = b.add_soft_body(&Mesh::icosphere(0.05, 1).translated(at), &opts)?;
+        b.set_contact(h.index, Contact { self_collision: true, ..Default::default() })?;
+    }
+    Ok(b)
+}
