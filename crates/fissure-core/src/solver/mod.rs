@@ -454,14 +454,20 @@ impl<R: Real> CpuSolver<R> {
     /// read 1.46× its spring pass in one run and 0.10–0.13× in three). The choice changes no bits.
     #[doc(hidden)]
     pub fn force_team(&mut self, team: Option<bool>) {
+        #[cfg(feature = "parallel")]
         self.team_pick.force(team);
+        #[cfg(not(feature = "parallel"))]
+        let _ = team;
     }
 
     /// Whether this solver's measurements favour the team, once it has timed both ways (`None` before that,
     /// when forced, or where there is no team). See [`CpuSolver::force_team`].
     #[doc(hidden)]
     pub fn team_chosen(&self) -> Option<bool> {
-        self.team_pick.chosen()
+        #[cfg(feature = "parallel")]
+        return self.team_pick.chosen();
+        #[cfg(not(feature = "parallel"))]
+        None
     }
 
     /// Substeps the last [`Solver::step`] took (1 unless the stability guard split it).
