@@ -90,7 +90,7 @@ fn contact_is_bit_identical_on_one_and_many_threads() {
             let mut s = m.state();
             let mut solver = CpuSolver::<f32>::default();
             for _ in 0..1500 {
-                solver.step(&m, &mut s, 2e-4).unwrap();
+                solver.step(&m, &mut s, 1e-4).unwrap();
             }
             assert!(solver.contact_stats().builds > 1);
             s.particle_q.iter().chain(&s.particle_qd).flat_map(|v| v.to_array()).map(f32::to_bits).collect::<Vec<_>>()
@@ -238,7 +238,7 @@ fn a_model_without_contact_does_no_contact_work() {
     let mut s = m.state();
     let mut solver = CpuSolver::<f32>::default();
     for _ in 0..10 {
-        solver.step(&m, &mut s, 2e-4).unwrap();
+        solver.step(&m, &mut s, 1e-4).unwrap();
     }
     assert_eq!(solver.timers().calls(Stage::Contact), 0);
     let mut b2 = ModelBuilder::new();
