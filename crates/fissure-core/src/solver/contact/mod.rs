@@ -133,8 +133,8 @@ pub(super) struct ContactScratch<R: Real> {
     el: Option<Elements>,
     /// Positions at the start of the substep.
     pub x0: Vec<R::V>,
-    /// Each contact particle's squared move this step \[m²\] (`|q - x0|²`; the others' entries are stale): a
-    /// pair's reach is the thickness plus its particles' largest move over `GAMMA`.
+    /// Each contact particle's move this step \[m\] (`|q - x0|`; the others' entries are stale): a pair's reach
+    /// is the thickness plus its particles' largest move over `GAMMA`.
     moved: Vec<f64>,
     /// Positions when the candidates were found, and their search radius (0: none yet).
     xb: Vec<R::V>,
@@ -181,7 +181,7 @@ impl<R: Real> ContactScratch<R> {
         let el = self.el.as_ref().expect("elements prepared");
         let (x0, moved) = (&self.x0, &self.moved);
         let x = |i: u32| x0[i as usize].to_dvec3();
-        let reach = |p: [u32; 4]| h_max + p.iter().fold(0.0f64, |a, &i| a.max(moved[i as usize])).sqrt() / GAMMA;
+        let reach = |p: [u32; 4]| h_max + p.iter().fold(0.0f64, |a, &i| a.max(moved[i as usize])) / GAMMA;
         let pair = |p: [u32; 4], w: [f64; 4], fallback: DVec3, b: [u32; 2], r: f64| {
             let diff: DVec3 = (0..4).map(|k| w[k] * x(p[k])).sum();
             let d = diff.length();
@@ -335,7 +335,7 @@ impl<R: Real> CpuSolver<R> {
                 let d2 = (q[i].to_dvec3() - x).length_squared();
                 // SAFETY: `moved` has an entry per particle, and `el.particles` lists each particle once, so no
                 // two calls (in parallel chunks of it) write the same entry; nothing reads `moved` meanwhile.
-                unsafe { out.write(i, d2) };
+                unsafe { out.write(i, d2.sqrt()) };
                 mv.d2 = mv.d2.max(d2);
                 if fresh {
                     let drift = x - xb[i].to_dvec3();
@@ -398,7 +398,7 @@ impl<R: Real> CpuSolver<R> {
             for &i in &p.p {
                 if bound[i as usize] == f64::INFINITY {
                     touched.push(i);
-                    bound[i as usize] = GAMMA * h_max + moved[i as usize].sqrt();
+                    bound[i as usize] = GAMMA * h_max + moved[i as usize];
                 }
                 bound[i as usize] = bound[i as usize].min(GAMMA * p.d);
             }
