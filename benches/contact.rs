@@ -2,10 +2,15 @@
 //! (radius 0.3 m) and the floor, with self-collision, against the same cloth without it, per step, from the same
 //! folded state. Prints µs/step both ways, their ratio, and the contact pass's pairs per step.
 //!
+//! Then the same two models on the GPU (`GpuSolver`, the adapter `GpuContext` picks), from the same folded state,
+//! at the CPU's substep, many substeps per submission: µs per substep both ways and their ratio. Without an
+//! adapter the GPU arm is skipped with the reason printed (and the run fails when `CI` is set).
+//!
 //! Run: `cargo bench --bench contact`. `FISSURE_BENCH_QUICK=1` shrinks the cloth to 32 × 32 so CI can run it fast.
 
 use criterion::{Criterion, criterion_group, criterion_main};
 use fissure::*;
+use fissure_gpu::{GpuConfig, GpuContext, GpuSolver};
 use std::hint::black_box;
 use std::time::Instant;
 
@@ -71,6 +76,7 @@ fn bench(c: &mut Criterion) {
         after.refreshes - before.refreshes
     );
     println!("{}", solver.timers());
+    gpu_arm(n, [&with, &without], &folded, dt / solver.last_substeps().max(1) as f64);
     let mut s = folded.clone();
     c.bench_function(&format!("cloth_{n}x{n}_fold_self_collision_step"), |b| {
         b.iter(|| {
@@ -78,6 +84,50 @@ fn bench(c: &mut Criterion) {
             black_box(&s);
         })
     });
+}
+
+/// The same comparison on the GPU: each model from `folded`, substeps of `dt` \[s\] (the CPU's substep), 32 a
+/// submission; µs per substep with self-collision and without, read with the queue drained.
+fn gpu_arm(n: usize, models: [&Model<f32>; 2], folded: &State<f32>, dt: f64) {
+    let ctx = match GpuContext::new() {
+        Ok(ctx) => ctx,
+        Err(e) => {
+            assert!(!fissure_gpu::adapter_required(), "CI is set and there is no GPU adapter: {e}");
+            println!("GPU arm skipped: {e}");
+            return;
+        }
+    };
+    let quick = std::env::var_os("FISSURE_BENCH_QUICK").is_some();
+    let (k, submissions) = if quick { (4, 2) } else { (32, 20) };
+    let mut per_step = [0.0; 2];
+    let mut pairs = 0.0;
+    for (slot, m) in models.into_iter().enumerate() {
+        let config = GpuConfig { contact_capacity: 1 << 18, ..Default::default() };
+        let mut g = GpuSolver::new(ctx.device.clone(), ctx.queue.clone(), m, config).unwrap();
+        g.upload_state(folded).unwrap();
+        g.run(m, dt, k).unwrap();
+        g.wait().unwrap();
+        let before = g.contact_stats();
+        let t0 = Instant::now();
+        for _ in 0..submissions {
+            g.run(m, dt, k).unwrap();
+        }
+        g.wait().unwrap();
+        per_step[slot] = t0.elapsed().as_secs_f64() / (submissions * k) as f64;
+        if slot == 0 {
+            let after = g.contact_stats();
+            pairs = (after.near_total - before.near_total) as f64 / (submissions * k) as f64;
+        }
+    }
+    println!(
+        "GPU ({}): cloth {n}x{n} folding, substep {:.2e} s, {k} substeps a submission: {:.1} µs/substep with \
+         self-collision, {:.1} without: {:.2}x; {pairs:.0} pairs within reach per substep",
+        ctx.describe(),
+        dt,
+        per_step[0] * 1e6,
+        per_step[1] * 1e6,
+        per_step[0] / per_step[1]
+    );
 }
 
 criterion_group!(benches, bench);

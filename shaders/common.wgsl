@@ -135,7 +135,8 @@ struct Collider {
 @group(0) @binding(22) var<storage, read> c_edges: array<vec2<u32>>;
 // Positions at the start of the substep.
 @group(0) @binding(23) var<storage, read_write> c_x0: array<vec4<f32>>;
-// The two hash grids (vertices, edge midpoints): counts [0, 2B), bucket starts [2B, 4B + 1), items after them.
+// The two hash grids (vertices, edge midpoints): counts [0, 2B), bucket starts [2B, 4B + 1), the scan's block sums
+// (contact.wgsl, `scan_blocks`), items after them.
 @group(0) @binding(24) var<storage, read_write> c_grid: array<atomic<u32>>;
 // The pairs within reach this substep.
 @group(0) @binding(25) var<storage, read_write> c_pairs: array<Pair>;

@@ -233,10 +233,20 @@ impl ContactPack {
         !self.edges.is_empty()
     }
 
-    /// Buckets per grid: a power of two, at least twice the larger grid's items and at least 128 (the scan
-    /// kernel's chunks).
+    /// Buckets per grid: a power of two, at least twice the larger grid's items and at least 128.
     pub fn buckets(&self) -> usize {
         (2 * self.particles.max(self.edges.len())).next_power_of_two().max(128)
+    }
+
+    /// Blocks of the bucket counts' scan (`SCAN_BLOCK` in `shaders/contact.wgsl`: 1,024 counts each).
+    pub fn scan_blocks(&self) -> usize {
+        (2 * self.buckets()).div_ceil(1024)
+    }
+
+    /// Where the grids' items start in `c_grid`: after both grids' counts and starts, the total and the scan's
+    /// block sums (`grid_items_at` in `shaders/contact.wgsl`).
+    pub fn grid_items_at(&self) -> usize {
+        4 * self.buckets() + 1 + self.scan_blocks()
     }
 }
 

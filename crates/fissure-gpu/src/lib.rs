@@ -61,7 +61,7 @@ pub const SHADERS: [(&str, &str); 5] = [
 /// than 8 storage buffers, WebGPU's default `maxStorageBuffersPerShaderStage` (what a browser grants without
 /// asking): one layout with all 19 would need a device that allows 19. `tests/wgsl.rs` checks the table against
 /// what naga finds each entry point using.
-pub const KERNEL_BINDINGS: [(&str, &[u32]); 28] = [
+pub const KERNEL_BINDINGS: [(&str, &[u32]); 29] = [
     ("integrate_symplectic_euler", &FORCE_GATHER),
     ("integrate_verlet_first", &FORCE_GATHER),
     ("integrate_verlet_second", &FORCE_GATHER),
@@ -78,7 +78,8 @@ pub const KERNEL_BINDINGS: [(&str, &[u32]); 28] = [
     ("load_check", &[1, 3, 4, 5, 6, 9, 19]),
     ("contact_save", &[1, 20, 23, 24, 26]),
     ("contact_edges", &[1, 22, 24, 26]),
-    ("contact_scan", &[30]),
+    ("contact_scan_sums", &[30]),
+    ("contact_scan_spread", &[30]),
     ("contact_scatter", &[20, 22, 23, 24]),
     ("contact_moves", &[2, 20, 23, 26]),
     ("contact_vt", &[3, 7, 20, 21, 23, 25, 26, 29]),

@@ -14,7 +14,9 @@ impl GpuSolver {
         let cur = self.cur;
         self.dispatch(pass, k!("contact_save"), cur, clock, groups(n));
         self.dispatch(pass, k!("contact_edges"), cur, clock, groups(ne));
-        self.dispatch(pass, k!("contact_scan"), cur, clock, (1, 1));
+        let blocks = self.packed.contact.scan_blocks() as u32;
+        self.dispatch(pass, k!("contact_scan_sums"), cur, clock, (blocks, 1));
+        self.dispatch(pass, k!("contact_scan_spread"), cur, clock, (blocks, 1));
         self.dispatch(pass, k!("contact_scatter"), cur, clock, groups(n + ne));
     }
 

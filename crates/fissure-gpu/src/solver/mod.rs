@@ -11,7 +11,7 @@
 //! | `surface_volume` | gas |
 //! | `integrate_symplectic_euler` or `integrate_verlet_first` + `integrate_verlet_second` | always |
 //! | `collide` | colliders |
-//! | `contact_save`, `contact_edges`, `contact_scan`, `contact_scatter` (before the integrator) | contact |
+//! | `contact_save`, `contact_edges`, `contact_scan_sums`, `contact_scan_spread`, `contact_scatter` (before the integrator) | contact |
 //! | `contact_moves`, `contact_vt`, `contact_ee`, `contact_args`, `contact_prep`, `contact_jacobi_fused` (few pairs) or `contact_iterations` × `contact_jacobi_even`/`_odd`, `contact_friction`, `contact_apply` | contact |
 //! | `strain_check` / `surface_pressure` + `load_check` | breakable springs / vertices (the pressure pass: gas) |
 //! | `finite_check` | once per submission, with `check_finite` |
@@ -58,7 +58,10 @@ pub struct GpuConfig {
     pub contact_iterations: u32,
     /// Pairs up to which a submission runs all Jacobi iterations of a substep in one dispatch (one workgroup,
     /// `contact_jacobi_fused`) instead of one dispatch each, judged by the pairs the last submission's last substep
-    /// had. Both give the same bits; the choice is one of speed only. Default 1,024; 0: one dispatch per iteration.
+    /// had. Both give the same bits; the choice is one of speed only. Default 256 (one pair per invocation of the
+    /// workgroup); 0: one dispatch per iteration. On an H200, the 128² fold with ~710 pairs: 16 iterations took
+    /// ~290 µs of a substep in one workgroup against ~170 µs as 16 dispatches; on an H100, cloth_fold's ~215 pairs
+    /// took 13–14 % less of the whole substep in one workgroup (`benches/RESULTS.md`).
     pub contact_fused_pairs: u32,
 }
 
@@ -71,7 +74,7 @@ impl Default for GpuConfig {
             sdf_cells: 64,
             contact_capacity: 0,
             contact_iterations: 16,
-            contact_fused_pairs: 1024,
+            contact_fused_pairs: 256,
         }
     }
 }

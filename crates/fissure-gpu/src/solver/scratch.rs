@@ -40,7 +40,7 @@ pub(super) fn scratch_sizes(m: &Model<f32>, p: &Packed, capacity: u32) -> [usize
     let c = &p.contact;
     let (n, grid, pairs) = if c.on() {
         let pairs = if capacity > 0 { capacity as usize } else { 4 * c.particles + 1024 };
-        (m.particle_count(), 4 * c.buckets() + 1 + m.particle_count() + c.edges.len(), pairs)
+        (m.particle_count(), c.grid_items_at() + m.particle_count() + c.edges.len(), pairs)
     } else {
         (0, 0, 0)
     };
