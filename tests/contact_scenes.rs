@@ -1,75 +1,18 @@
-//! The contact scenes run to the end on the CPU, and at every frame (1/60 s) no two triangles that are not
-//! neighbours cross (the exact test of `fissure::contact::crossings`), unless both are of one body that does not
-//! ask for self-contact: balloons thrown at each other, a cloth folding over itself, and the fracture scene, whose
-//! core blocks must stay out of the ball.
-//!
-//! One more exception, which contact cannot avoid: a body without self-contact may cross itself (the fracture
-//! scene's torn ball, flattened on the floor, lies in layers in one plane), and a piece that breaks off where it
-//! does starts out crossing its parent. Such pairs are recorded at the step the piece is born (pairs of the
-//! piece and its parent, or pieces of one parent born in the same step, that cross then) and excused until they
-//! part; from then on they are held like any other. A crossing between a piece and anything else (pieces that
-//! broke off earlier, other bodies) is not excused.
+//! The contact scenes run to the end on the CPU, checked at every frame by `scene_check` (no two triangles that
+//! are not neighbours cross): balloons thrown at each other, a cloth folding over itself, and the fracture scene,
+//! whose core blocks must stay out of the ball. `tests/gpu_contact.rs` runs the fracture scene on the GPU with the
+//! same check.
 
-use fissure::scene::Scene;
 use fissure::*;
-use std::collections::HashSet;
 
-/// Pairs of triangles that cross at `q` and must not: of two bodies, or of one body with self-contact.
-fn forbidden(m: &Model<f32>, q: &[fissure::glam::Vec3]) -> Vec<[u32; 2]> {
-    fissure::contact::crossings(m, q)
-        .into_iter()
-        .filter(|&[t, u]| {
-            let (a, b) = (m.tri_body[t as usize], m.tri_body[u as usize]);
-            a != b || m.body_self_contact[a as usize]
-        })
-        .collect()
-}
+mod scene_check;
 
-/// Runs `name` to its end, in the steps `World::advance` takes (so a piece's birth is seen at its step); returns
-/// the world and the contact pass's totals.
+/// Runs `name` on the CPU to its end, checked at every frame; returns the world and the contact pass's totals.
 fn run_checked(name: &str) -> (World<f32>, ContactStats) {
-    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes").join(format!("{name}.toml"));
-    let scene = Scene::load(&path).unwrap();
-    let mut w = scene.world::<f32>().unwrap();
-    assert!(w.model.has_contact(), "{name}: the scene asks for contact");
-    let frames = (scene.solver.duration * 60.0).round() as usize;
-    let mut inherited: HashSet<[u32; 2]> = HashSet::new();
-    let mut excused = 0;
-    for frame in 0..frames {
-        let end = w.state.time + 1.0 / 60.0;
-        while w.state.time < end - 1e-12 {
-            let (bodies, events) = (w.model.body_count(), w.events.len());
-            w.step(scene.solver.dt.min(end - w.state.time)).unwrap();
-            if w.model.body_count() == bodies {
-                continue;
-            }
-            // Pieces born this step: each joins the group of the body it broke from (whose own crossings are
-            // allowed when it has no self-contact); a crossing between two members of one group, one of them
-            // new, is the parent's own crossing inherited.
-            let m = &w.model;
-            let mut group: Vec<u32> = (0..m.body_count() as u32).collect();
-            for e in &w.events[events..] {
-                if let Some(b) = e.new_body {
-                    group[b as usize] = group[e.body as usize];
-                }
-            }
-            for [t, u] in forbidden(m, &w.state.particle_q) {
-                let (a, b) = (m.tri_body[t as usize] as usize, m.tri_body[u as usize] as usize);
-                let root = group[a] as usize;
-                if group[b] as usize == root && a.max(b) >= bodies && !m.body_self_contact[root] {
-                    inherited.insert([t, u]);
-                }
-            }
-        }
-        let x = forbidden(&w.model, &w.state.particle_q);
-        // A pair that parted is held from now on.
-        inherited.retain(|p| x.contains(p));
-        excused = excused.max(inherited.len());
-        let x: Vec<_> = x.into_iter().filter(|p| !inherited.contains(p)).collect();
-        assert!(x.is_empty(), "{name}: frame {frame}: {} crossing triangle pairs, first {:?}", x.len(), x[0]);
-    }
+    let scene = scene_check::scene(name);
+    let mut w = scene_check::run_checked(name, scene.world::<f32>().unwrap(), &scene);
     let stats = w.cpu_solver().unwrap().contact_stats();
-    eprintln!("{name}: {stats:?}, at most {excused} pairs inherited at a piece's birth, timers\n{}", w.timers());
+    eprintln!("{name}: {stats:?}");
     (w, stats)
 }
 
