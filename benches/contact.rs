@@ -128,6 +128,27 @@ fn gpu_arm(n: usize, models: [&Model<f32>; 2], folded: &State<f32>, dt: f64) {
         per_step[1] * 1e6,
         per_step[0] / per_step[1]
     );
+    // Where a substep with self-collision goes: the same run again with the kernel timers (a timestamp after each
+    // dispatch), device µs per substep by kernel.
+    let timed = GpuConfig { contact_capacity: 1 << 18, kernel_timers: true, ..Default::default() };
+    let Ok(mut g) = GpuSolver::new(ctx.device.clone(), ctx.queue.clone(), models[0], timed) else {
+        println!("GPU kernel timers: not offered by this device");
+        return;
+    };
+    g.upload_state(folded).unwrap();
+    g.run(models[0], dt, k).unwrap();
+    g.reset_timers();
+    for _ in 0..submissions {
+        g.run(models[0], dt, k).unwrap();
+    }
+    let mut times = g.kernel_times();
+    times.sort_by_key(|t| std::cmp::Reverse(t.1));
+    let per = (submissions * k) as f64;
+    let total: f64 = times.iter().map(|t| t.1.as_secs_f64()).sum::<f64>() / per;
+    println!("GPU kernels with self-collision, device µs per substep (sum {:.1}):", total * 1e6);
+    for (name, t, calls) in times {
+        println!("  {name:<28} {:>8.1} µs  {:>5.1} dispatches", t.as_secs_f64() / per * 1e6, calls as f64 / per);
+    }
 }
 
 criterion_group!(benches, bench);

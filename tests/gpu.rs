@@ -208,6 +208,65 @@ fn ball_drop_trajectory_matches_the_cpu() {
     }
 }
 
+/// The kernel timers (`GpuConfig::kernel_timers`): every kernel a submission encodes is timed once per dispatch,
+/// the times land in the stage timers, within the wall time of the submissions, and timing changes no bit.
+#[test]
+fn kernel_timers_time_every_dispatch_and_change_nothing() {
+    let Some(ctx) = gpu() else { return };
+    let m: Model<f32> = scenes::ball_drop(&BallDrop { height: 0.4, subdivisions: 2, ..Default::default() })
+        .unwrap()
+        .finalize()
+        .unwrap();
+    let timed = GpuConfig { kernel_timers: true, ..Default::default() };
+    let mut g = match GpuSolver::new(ctx.device.clone(), ctx.queue.clone(), &m, timed) {
+        Ok(g) => g,
+        Err(e @ fissure_gpu::GpuError::NoKernelTimers) if !fissure_gpu::adapter_required() => {
+            eprintln!("SKIPPED: {e}");
+            return;
+        }
+        Err(e) => panic!("{e}"),
+    };
+    let mut plain = solver(&ctx, &m, Integrator::SymplecticEuler);
+    // A first submission, then the timers reset: they count what follows only.
+    g.run(&m, 2e-4, 40).unwrap();
+    plain.run(&m, 2e-4, 40).unwrap();
+    g.reset_timers();
+    assert!(g.kernel_times().is_empty() && g.timers().total.is_zero());
+    for _ in 0..3 {
+        g.run(&m, 2e-4, 40).unwrap();
+        plain.run(&m, 2e-4, 40).unwrap();
+    }
+    let (mut a, mut b) = (m.state(), m.state());
+    g.read_state(&mut a).unwrap();
+    plain.read_state(&mut b).unwrap();
+    let bits = |s: &State<f32>| s.particle_q.iter().flat_map(|v| v.to_array().map(f32::to_bits)).collect::<Vec<_>>();
+    assert!(bits(&a) == bits(&b), "the timed solver's positions differ from the plain one's");
+    // Each kernel of the last submission, as many times as it was dispatched per submission (times 3).
+    let times = g.kernel_times();
+    eprintln!("{times:?}");
+    for name in g.passes() {
+        let per = g.passes().iter().filter(|&p| p == name).count() as u64;
+        let (_, t, calls) = times.iter().find(|(n, ..)| n == name).expect("every kernel encoded is timed");
+        assert_eq!(*calls, 3 * per, "{name}");
+        assert!(*t > std::time::Duration::ZERO, "{name}: no time");
+    }
+    assert_eq!(times.len(), {
+        let mut p = g.passes().to_vec();
+        p.sort();
+        p.dedup();
+        p.len()
+    });
+    let timers = g.timers();
+    let sum: std::time::Duration = times.iter().map(|(_, t, _)| *t).sum();
+    let staged: std::time::Duration = Stage::ALL.iter().map(|&s| timers.time(s)).sum();
+    assert!(staged == sum, "stage timers {staged:?} against the kernels' {sum:?}");
+    assert!(
+        timers.time(Stage::Integrate) > std::time::Duration::ZERO && timers.time(Stage::Surface) > Default::default()
+    );
+    assert!(sum <= timers.total, "the kernels' {sum:?} exceed the submissions' wall time {:?}", timers.total);
+    eprintln!("{timers}");
+}
+
 #[test]
 fn collisions_match_the_cpu_for_every_analytic_shape() {
     let Some(ctx) = gpu() else { return };

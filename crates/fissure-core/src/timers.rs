@@ -75,9 +75,9 @@ impl StageTimers {
         self.time[stage as usize] += since.elapsed();
         self.calls[stage as usize] += 1;
     }
-    /// Adds `d` to `stage` (a stage timed in pieces inside another's pass).
+    /// Adds `d` to `stage` (a stage timed in pieces inside another's pass, or on a device).
     #[inline]
-    pub(crate) fn add_time(&mut self, stage: Stage, d: Duration) {
+    pub fn add_time(&mut self, stage: Stage, d: Duration) {
         self.time[stage as usize] += d;
         self.calls[stage as usize] += 1;
     }

@@ -51,7 +51,10 @@ impl GpuContext {
         let (device, queue) = adapter
             .request_device(&wgpu::DeviceDescriptor {
                 label: Some("fissure"),
-                required_features: wgpu::Features::empty(),
+                // Timestamps inside passes where the adapter has them, for `GpuConfig::kernel_timers` (unused,
+                // they cost nothing).
+                required_features: adapter.features()
+                    & (wgpu::Features::TIMESTAMP_QUERY | wgpu::Features::TIMESTAMP_QUERY_INSIDE_PASSES),
                 required_limits: limits.unwrap_or_else(|| adapter.limits()),
                 ..Default::default()
             })

@@ -44,7 +44,7 @@ mod solver;
 pub use context::{GpuContext, adapter_required, instance_descriptor};
 pub use layout::{GpuBody, GpuCollider, GpuParticle, GpuSpring, MAX_GPU_HANDLES, Params, STATE_STRIDE};
 pub use sdf::SdfGrid;
-pub use solver::{Candidates, GpuConfig, GpuSolver, RunReport};
+pub use solver::{Candidates, GpuConfig, GpuSolver, KERNEL_TIMESTAMPS, RunReport};
 pub use wgpu;
 
 /// The WGSL files of the solver, in the order they are concatenated after `common.wgsl`.
@@ -178,6 +178,11 @@ pub enum GpuError {
         "more than 15 moving pins (ModelBuilder::add_handle, the scene's `[[body.handle]]`): the GPU clock holds 15; use the CPU solver (`--backend cpu`)"
     )]
     UnsupportedHandles,
+    /// [`GpuConfig::kernel_timers`] on a device without timestamp queries inside passes.
+    #[error(
+        "GpuConfig::kernel_timers needs timestamp queries inside compute passes, which this device does not offer (browsers never do); run without kernel timers"
+    )]
+    NoKernelTimers,
     /// A collider could not be prepared.
     #[error("collider {index}: {message}")]
     Collider {

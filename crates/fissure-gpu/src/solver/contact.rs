@@ -51,6 +51,7 @@ impl GpuSolver {
     fn dispatch_pairs(&mut self, pass: &mut wgpu::ComputePass<'_>, k: usize, cur: usize, clock: usize) {
         self.bind_kernel(pass, k, cur, clock);
         pass.dispatch_workgroups_indirect(&self.scratch.c_args, 0);
+        self.stamp(pass, k);
     }
 
     /// Takes the contact counters a submission copied into the status words (`c_ctl`'s first 8 words): the

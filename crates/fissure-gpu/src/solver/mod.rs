@@ -23,7 +23,7 @@
 
 use fissure_core::timers::Instant;
 
-use fissure_core::{Integrator, Model, StageTimers, State};
+use fissure_core::{Integrator, Model, Stage, StageTimers, State};
 use glam::Vec3;
 
 use crate::layout::{self, CLOCK_STRIDE, Clock, GpuCollider, MAX_GPU_HANDLES, Mirror, Packed, Params, STATE_STRIDE};
@@ -63,6 +63,16 @@ pub struct GpuConfig {
     /// ~290 µs of a substep in one workgroup against ~170 µs as 16 dispatches; on an H100, cloth_fold's ~215 pairs
     /// took 13–14 % less of the whole substep in one workgroup (`benches/RESULTS.md`).
     pub contact_fused_pairs: u32,
+    /// Time every kernel on the device: a timestamp after each dispatch of a submission (at most
+    /// [`crate::KERNEL_TIMESTAMPS`] − 1 of them), read back after it, each kernel's time added to
+    /// [`GpuSolver::kernel_times`] and to its stage in the stage timers (the integrators and the force gather
+    /// under `integrate`, the surface kernels under `surface`, `collide`, the contact kernels under `contact`,
+    /// the strain and load checks under `fracture`). A kernel's time runs from the timestamp before it to the
+    /// one after, so it includes the wait for the kernels it depends on to finish. Needs timestamp queries inside
+    /// passes (Vulkan, Metal and D3D12 adapters; not browsers): [`GpuSolver::new`] fails without them
+    /// ([`GpuError::NoKernelTimers`]); [`crate::GpuContext`] asks for them where the adapter has them. Costs
+    /// one read-back a submission. Default false.
+    pub kernel_timers: bool,
 }
 
 impl Default for GpuConfig {
@@ -75,6 +85,7 @@ impl Default for GpuConfig {
             contact_capacity: 0,
             contact_iterations: 16,
             contact_fused_pairs: 256,
+            kernel_timers: false,
         }
     }
 }
@@ -189,6 +200,25 @@ pub struct GpuSolver {
     /// Particles `0..state_valid` hold a valid state on the GPU (a reallocation of the state buffers empties it).
     state_valid: usize,
     timers: StageTimers,
+    /// The kernel timers ([`GpuConfig::kernel_timers`]).
+    profile: Option<Profile>,
+}
+
+/// Timestamps a submission may write with [`GpuConfig::kernel_timers`]: wgpu's largest query set.
+pub const KERNEL_TIMESTAMPS: u32 = 4096;
+
+/// The kernel timers' query set and what they have summed (see [`GpuConfig::kernel_timers`]).
+struct Profile {
+    set: wgpu::QuerySet,
+    resolve: wgpu::Buffer,
+    /// Nanoseconds per timestamp tick.
+    period: f64,
+    /// Timestamps are being written (inside a submission's pass).
+    on: bool,
+    /// The kernel of each timestamp after the first, this submission.
+    stamps: Vec<usize>,
+    /// Per kernel (in [`KERNEL_BINDINGS`] order): time and dispatches timed.
+    sums: Vec<(std::time::Duration, u64)>,
 }
 
 fn buffer_entry(binding: u32, ty: wgpu::BufferBindingType, dynamic: bool, min: u64) -> wgpu::BindGroupLayoutEntry {
@@ -333,6 +363,24 @@ impl GpuSolver {
         let clock = Self::clock_buffer(&device, clock_capacity);
         let clock_bind = Self::clock_bind(&device, &layout1, &clock);
         let scratch = scratch(&device, &queue, model, &packed, config.contact_capacity);
+        let profile = if config.kernel_timers {
+            let need = wgpu::Features::TIMESTAMP_QUERY | wgpu::Features::TIMESTAMP_QUERY_INSIDE_PASSES;
+            if !device.features().contains(need) {
+                return Err(GpuError::NoKernelTimers);
+            }
+            let set = device.create_query_set(&wgpu::QuerySetDescriptor {
+                label: Some("kernel timers"),
+                ty: wgpu::QueryType::Timestamp,
+                count: KERNEL_TIMESTAMPS,
+            });
+            let usage = wgpu::BufferUsages::QUERY_RESOLVE | wgpu::BufferUsages::COPY_SRC;
+            let resolve = layout::create(&device, "kernel timestamps", KERNEL_TIMESTAMPS as usize * 8, usage);
+            let sums = vec![(std::time::Duration::ZERO, 0); KERNEL_BINDINGS.len()];
+            let period = queue.get_timestamp_period() as f64;
+            Some(Profile { set, resolve, period, on: false, stamps: Vec::new(), sums })
+        } else {
+            None
+        };
         let mut s = GpuSolver {
             device,
             queue,
@@ -374,6 +422,7 @@ impl GpuSolver {
             last_repacked: 0,
             state_valid: 0,
             timers: StageTimers::default(),
+            profile,
         };
         s.rebind();
         s.write_params(model);
@@ -467,6 +516,56 @@ impl GpuSolver {
     fn dispatch(&mut self, pass: &mut wgpu::ComputePass<'_>, k: usize, cur: usize, clock: usize, n: (u32, u32)) {
         self.bind_kernel(pass, k, cur, clock);
         pass.dispatch_workgroups(n.0, n.1, 1);
+        self.stamp(pass, k);
+    }
+
+    /// With the kernel timers on, a timestamp after kernel `k`'s dispatch (while the submission has room).
+    fn stamp(&mut self, pass: &mut wgpu::ComputePass<'_>, k: usize) {
+        if let Some(p) = &mut self.profile
+            && p.on
+            && (p.stamps.len() + 1) < KERNEL_TIMESTAMPS as usize
+        {
+            p.stamps.push(k);
+            pass.write_timestamp(&p.set, p.stamps.len() as u32);
+        }
+    }
+
+    /// The kernel timers' sums: each kernel timed, its device time and dispatches, in [`KERNEL_BINDINGS`] order
+    /// (empty without [`GpuConfig::kernel_timers`]). Reset with the stage timers.
+    pub fn kernel_times(&self) -> Vec<(&'static str, std::time::Duration, u64)> {
+        let Some(p) = &self.profile else { return Vec::new() };
+        KERNEL_BINDINGS
+            .iter()
+            .zip(&p.sums)
+            .filter(|(_, (_, calls))| *calls > 0)
+            .map(|((name, _), &(t, calls))| (*name, t, calls))
+            .collect()
+    }
+
+    fn reset_kernel_times(&mut self) {
+        if let Some(p) = &mut self.profile {
+            p.sums.iter_mut().for_each(|s| *s = Default::default());
+        }
+    }
+
+    /// Adds a submission's timestamps (ticks; the first before its first kernel) to the kernel timers and to the
+    /// stage timers.
+    fn take_timestamps(&mut self, ticks: &[u64]) {
+        let Some(p) = &mut self.profile else { return };
+        for (w, &k) in ticks.windows(2).zip(&p.stamps) {
+            let d = std::time::Duration::from_nanos((w[1].saturating_sub(w[0]) as f64 * p.period) as u64);
+            p.sums[k].0 += d;
+            p.sums[k].1 += 1;
+            let name = KERNEL_BINDINGS[k].0;
+            let stage = match name {
+                "collide" => Stage::Collide,
+                "strain_check" | "load_check" => Stage::Fracture,
+                _ if name.starts_with("contact") => Stage::Contact,
+                _ if name.starts_with("surface") || name == "cap_force" => Stage::Surface,
+                _ => Stage::Integrate,
+            };
+            self.timers.add_time(stage, d);
+        }
     }
 
     /// Sets kernel `k`'s pipeline and bind groups (state `cur`, clock entry `clock`) and records the pass.
@@ -595,6 +694,11 @@ impl GpuSolver {
         {
             let mut pass =
                 enc.begin_compute_pass(&wgpu::ComputePassDescriptor { label: Some("substeps"), ..Default::default() });
+            if let Some(p) = &mut self.profile {
+                p.on = true;
+                p.stamps.clear();
+                pass.write_timestamp(&p.set, 0);
+            }
             for k in 0..steps {
                 self.encode_step(&mut pass, m, k);
             }
@@ -602,6 +706,10 @@ impl GpuSolver {
                 let last = 2 * steps.max(1) - 1;
                 self.dispatch(&mut pass, k!("finite_check"), self.cur, last, groups(self.particle_count()));
             }
+        }
+        if let Some(p) = &mut self.profile {
+            p.on = false;
+            enc.resolve_query_set(&p.set, 0..p.stamps.len() as u32 + 1, &p.resolve, 0);
         }
         let read = self.config.check_finite || m.has_fracture() || contact;
         if read {
@@ -619,6 +727,10 @@ impl GpuSolver {
             report.spring_candidates = w[0];
             report.vertex_candidates = w[1];
             status = Some(w);
+        }
+        if let Some(p) = &self.profile {
+            let bytes = self.read_bytes(&p.resolve, 8 * (p.stamps.len() as u64 + 1)).await?;
+            self.take_timestamps(&bytemuck::pod_collect_to_vec::<u8, u64>(&bytes));
         }
         self.timers.steps += steps as u64;
         self.timers.total += t0.elapsed();

@@ -413,6 +413,7 @@ impl Solver<f32> for GpuSolver {
 
     fn reset_timers(&mut self) {
         self.timers.reset();
+        self.reset_kernel_times();
     }
 
     fn as_any(&self) -> &dyn std::any::Any {
