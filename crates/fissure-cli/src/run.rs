@@ -20,6 +20,8 @@ pub struct RunConfig {
     pub gpu: bool,
     /// Steps between two fracture passes (`World::fracture_every`), on either backend.
     pub fracture_every: usize,
+    /// Time every GPU kernel (`GpuConfig::kernel_timers`; `--kernel-timers`, with `--backend gpu`).
+    pub kernel_timers: bool,
     pub size: [u32; 2],
     pub gif: bool,
     pub png: bool,
@@ -57,6 +59,8 @@ usage: fissure run SCENE [--set KEY=VALUE ...] [--frames N] [--fps F] [--out DIR
                     Verlet kernels; drawn straight from the GPU's position buffer)
   --fracture-every N  steps between two fracture passes, on either backend (default 1: every step;
                     larger reads a GPU's state back less often, and fractures are noticed later)
+  --kernel-timers   with --backend gpu: time every kernel on the device (timestamp queries; one
+                    read-back a submission) and print the stages' device time and the costliest kernels
   --size WxH        frame size in pixels (default 640x360)
   --mesh F          also write each frame's surface mesh: obj, ply, or vtk (ParaView: one .vtp
                     per frame with velocity, strain, body and damage fields, and run.pvd, the
@@ -86,6 +90,7 @@ pub fn parse(args: &[String]) -> Result<RunConfig, String> {
         out: None,
         gpu: false,
         fracture_every: 1,
+        kernel_timers: false,
         size: [640, 360],
         gif: true,
         png: true,
@@ -119,6 +124,7 @@ pub fn parse(args: &[String]) -> Result<RunConfig, String> {
                     return Err("--fracture-every: must be at least 1".into());
                 }
             }
+            "--kernel-timers" => cfg.kernel_timers = true,
             "--backend" => {
                 cfg.gpu = match value("--backend")?.as_str() {
                     "cpu" => false,
@@ -152,6 +158,9 @@ pub fn parse(args: &[String]) -> Result<RunConfig, String> {
         }
     }
     cfg.scene = scene.ok_or("which scene? e.g. fissure run scenes/fracture.toml")?;
+    if cfg.kernel_timers && !cfg.gpu {
+        return Err("--kernel-timers times the GPU's kernels: add --backend gpu".into());
+    }
     Ok(cfg)
 }
 
@@ -253,7 +262,8 @@ pub fn run(cfg: &RunConfig) -> Result<RunSummary, Box<dyn std::error::Error>> {
     // The device: the GPU backend needs one; the CPU backend only to draw.
     let (renderer, adapter) = if cfg.gpu {
         let ctx = GpuContext::new().map_err(|e| format!("--backend gpu: {e}"))?;
-        let config = GpuConfig { integrator: scene.integrator()?, ..Default::default() };
+        let config =
+            GpuConfig { integrator: scene.integrator()?, kernel_timers: cfg.kernel_timers, ..Default::default() };
         world.solver = Box::new(GpuSolver::new(ctx.device.clone(), ctx.queue.clone(), &world.model, config)?);
         let adapter = ctx.describe();
         let r = FrameRenderer::with_context(ctx, cfg.size[0], cfg.size[1], &world.model, &world.state);
@@ -396,6 +406,16 @@ fn print_summary(scene: &Scene, cfg: &RunConfig, s: &RunSummary) {
         );
     }
     println!("| stage times | {} |", stage_line(&w.timers()));
+    if let Some(g) = w.gpu_solver() {
+        let mut k = g.kernel_times();
+        k.sort_by_key(|t| std::cmp::Reverse(t.1));
+        if !k.is_empty() {
+            let steps = w.timers().steps.max(1) as f64;
+            let line: Vec<String> =
+                k.iter().take(5).map(|(n, t, _)| format!("{n} {:.1} µs", t.as_secs_f64() * 1e6 / steps)).collect();
+            println!("| GPU kernels per step (device time, costliest first) | {} |", line.join(", "));
+        }
+    }
     match (&s.not_drawn, s.pngs.len()) {
         (Some(why), _) => println!("| pictures | none: {why} |"),
         (None, n) => {

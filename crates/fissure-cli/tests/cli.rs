@@ -68,12 +68,40 @@ fn run_without_an_adapter_simulates_and_says_why() {
     assert!(!out.join("frame_0001.png").exists() && !out.join("run.gif").exists());
 }
 
+/// `--backend gpu --kernel-timers`: the summary's stage times are the GPU kernels' device time, and the costliest
+/// kernels are listed (the ball drop: gas, the ground).
+#[test]
+fn run_on_the_gpu_with_kernel_timers_prints_the_kernels() {
+    let out = out_dir("run-kernel-timers");
+    let o = fissure()
+        .args(["run", "scenes/ball_drop.toml", "--frames", "3", "--no-png", "--no-gif", "--backend", "gpu"])
+        .arg("--kernel-timers")
+        .arg("--out")
+        .arg(&out)
+        .output()
+        .unwrap();
+    let (stdout, stderr) = (String::from_utf8_lossy(&o.stdout), String::from_utf8_lossy(&o.stderr));
+    if !o.status.success() && stderr.contains("no GPU adapter") && !fissure::gpu::adapter_required() {
+        eprintln!("no GPU adapter here: skipped ({stderr})");
+        return;
+    }
+    assert!(o.status.success(), "{stdout}\n{stderr}");
+    let line = stdout.lines().find(|l| l.starts_with("| stage times |")).unwrap_or_else(|| panic!("{stdout}"));
+    assert!(line.contains("surface") && line.contains("integrate") && line.contains("collide"), "{line}");
+    let kernels =
+        stdout.lines().find(|l| l.starts_with("| GPU kernels per step")).unwrap_or_else(|| panic!("{stdout}"));
+    assert!(kernels.contains("integrate_symplectic_euler"), "{kernels}");
+}
+
 /// Bad input is an error naming the problem, not a panic.
 #[test]
 fn run_rejects_bad_arguments_and_scenes() {
     let o = fissure().args(["run", "scenes/fracture.toml", "--backend", "tpu"]).output().unwrap();
     assert_eq!(o.status.code(), Some(2));
     assert!(String::from_utf8_lossy(&o.stderr).contains("neither cpu nor gpu"));
+    let o = fissure().args(["run", "scenes/fracture.toml", "--kernel-timers"]).output().unwrap();
+    assert_eq!(o.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&o.stderr).contains("add --backend gpu"));
     let dir = out_dir("bad-scene");
     std::fs::create_dir_all(&dir).unwrap();
     let scene = dir.join("bad.toml");
