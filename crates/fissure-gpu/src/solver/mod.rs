@@ -205,7 +205,7 @@ pub struct GpuSolver {
 }
 
 /// Timestamps a submission may write with [`GpuConfig::kernel_timers`]: wgpu's largest query set.
-pub const KERNEL_TIMESTAMPS: u32 = 4096;
+pub const KERNEL_TIMESTAMPS: u32 = wgpu::QUERY_SET_MAX_QUERIES;
 
 /// The kernel timers' query set and what they have summed (see [`GpuConfig::kernel_timers`]).
 struct Profile {
