@@ -11,21 +11,23 @@ mod gpu_support;
 use gpu_support::{gpu, rms_difference, solver};
 mod scene_check;
 
-/// Two balls (162 vertices each, no gas, no gravity, at rest) half their contact thickness apart, the second also
-/// in contact with itself with a thickness of about its edge length (so it has pairs with itself at rest); and the
-/// largest thickness.
-fn touching_balls() -> (Model<f32>, f64) {
+/// Two balls (icospheres of `sub` subdivisions: 162 vertices each at 2; no gas, no gravity, at rest) half their
+/// contact thickness apart, the second also in contact with itself with a thickness of about its edge length (so
+/// it has pairs with itself at rest); and the largest thickness.
+fn touching_balls(sub: u32) -> (Model<f32>, f64) {
     let mut b = ModelBuilder::new();
     b.gravity(DVec3::ZERO).unwrap();
     let opts = SoftBodyOptions::default();
-    let h = 0.02;
-    b.add_soft_body(&Mesh::icosphere(0.1, 2), &opts).unwrap();
+    // Thicknesses in proportion to the edges (which halve with each subdivision).
+    let f = 0.5f64.powi(sub as i32 - 2);
+    let h = 0.02 * f;
+    b.add_soft_body(&Mesh::icosphere(0.1, sub), &opts).unwrap();
     // Turned a little so that the two surfaces do not mirror each other (vertex on vertex).
     let turn = fissure::glam::DQuat::from_axis_angle(DVec3::new(0.3, 0.7, 0.2).normalize(), 0.4);
-    let turned = Mesh::icosphere(0.1, 2).map_positions(|p| turn * p).unwrap();
+    let turned = Mesh::icosphere(0.1, sub).map_positions(|p| turn * p).unwrap();
     b.add_soft_body(&turned.translated(DVec3::new(0.2 + 0.5 * h, 0.0, 0.0)), &opts).unwrap();
     b.set_contact(0, Contact { thickness: Some(h), ..Default::default() }).unwrap();
-    let h1 = 0.024;
+    let h1 = 0.024 * f;
     b.set_contact(1, Contact { thickness: Some(h1), self_collision: true, ..Default::default() }).unwrap();
     (b.finalize().unwrap(), h1)
 }
@@ -38,7 +40,23 @@ fn touching_balls() -> (Model<f32>, f64) {
 #[test]
 fn contact_pairs_match_the_cpu_on_a_fixed_configuration() {
     let Some(ctx) = gpu() else { return };
-    let (m, h) = touching_balls();
+    let (m, h) = touching_balls(2);
+    assert_same_pairs(&ctx, &m, h);
+}
+
+/// The same on finer balls (2 × 2,562 vertices, 2 × 7,680 contact edges): grids of 2^15 buckets each, whose counts
+/// the bucket scan takes in 64 blocks (`contact_scan_sums`, `contact_scan_spread`), against 4 at 162 vertices.
+#[test]
+fn contact_pairs_match_the_cpu_when_the_grids_span_many_scan_blocks() {
+    let Some(ctx) = gpu() else { return };
+    let (m, h) = touching_balls(4);
+    assert_eq!(m.particle_count(), 2 * 2562);
+    assert_same_pairs(&ctx, &m, h);
+}
+
+/// The body of the two tests above: the pairs of one substep on both backends.
+fn assert_same_pairs(ctx: &fissure_gpu::GpuContext, m: &Model<f32>, h: f64) {
+    let m = m.clone();
     let dt = 1e-4;
     // (h: the largest thickness, which is the reach at rest.)
     let mut cpu = CpuSolver::<f32>::new(SolverConfig::default());
@@ -231,7 +249,7 @@ fn contact_pairs_match_the_cpu_when_the_reach_spans_the_grid() {
 #[test]
 fn more_contact_pairs_than_the_buffer_holds_is_an_error() {
     let Some(ctx) = gpu() else { return };
-    let (m2, _) = touching_balls();
+    let (m2, _) = touching_balls(2);
     let config = GpuConfig { contact_capacity: 2, ..Default::default() };
     let mut g2 = GpuSolver::new(ctx.device.clone(), ctx.queue.clone(), &m2, config).unwrap();
     let e = g2.run(&m2, 1e-4, 1).unwrap_err();
