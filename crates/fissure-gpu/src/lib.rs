@@ -29,6 +29,12 @@
 //! ([`GpuSolver::run_async`], [`GpuSolver::read_state_async`], `World::advance_async`), awaited there because a
 //! browser maps a buffer only once control is back in its event loop; off the web the synchronous methods wait.
 //!
+//! Profiling: with [`GpuConfig::kernel_timers`] every dispatch is followed by a timestamp, and each kernel's
+//! device time is summed ([`GpuSolver::kernel_times`]) and added to its stage in the stage timers
+//! (`fissure run --backend gpu --kernel-timers` prints both). On an H200 through Vulkan a dependent dispatch costs
+//! at least ~7 µs whatever its size (`benches/RESULTS.md`), so a substep's cost there follows its count of
+//! dispatches as much as their work.
+//!
 //! Precision: the kernels run in `f32`. Per-step forces agree with the CPU `f32` forces to a few ulps of the
 //! largest force term (the sums run in a different order: CSR order on both, but the CPU sums spring runs in
 //! blocks); trajectories agree to the tolerances stated in `tests/gpu.rs`.
