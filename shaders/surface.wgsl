@@ -81,32 +81,59 @@ fn surface_cross(
     }
 }
 
-// Caps over the openings of gas bodies (one invocation per opening, loops are short): centre, `6 V` of the cap
-// fan about the body's anchor, and the sum of its edges' gradients (the centre's share).
+// Caps over the openings of gas bodies: centre, `6 V` of the cap fan about the body's anchor, and the sum of its
+// edges' gradients (the centre's share). One workgroup per opening, its loop shared among the invocations and
+// summed in a fixed tree (so a run is deterministic): a torn ball's openings run to hundreds of vertices, and one
+// invocation walking each loop alone took 177 µs a step of the fracture scene on an H200 (`fissure run
+// scenes/fracture.toml --backend gpu --kernel-timers`).
+var<workgroup> red4: array<vec4<f32>, 64>;
+
+fn tree_sum4(li: u32) {
+    for (var s = WG / 2u; s > 0u; s = s >> 1u) {
+        if (li < s) {
+            red4[li] = red4[li] + red4[li + s];
+        }
+        workgroupBarrier();
+    }
+}
+
 @compute @workgroup_size(64)
-fn surface_caps(@builtin(global_invocation_id) gid: vec3<u32>) {
-    let o = gid.x;
+fn surface_caps(
+    @builtin(local_invocation_index) li: u32,
+    @builtin(workgroup_id) wid: vec3<u32>,
+    @builtin(num_workgroups) nwg: vec3<u32>,
+) {
+    let o = wid.x + wid.y * nwg.x;
     if (o >= params.counts2.z) { return; }
     let h = params.counts2.y + 4u * o;
     let body = openings[h];
     let first = openings[h + 1u];
     let n = openings[h + 2u];
     let anchor = q_src(bodies[body].anchor);
-    var c = vec3<f32>(0.0);
-    for (var k = 0u; k < n; k++) {
-        c += q_src(openings[first + k]);
+    var sum = vec3<f32>(0.0);
+    for (var k = li; k < n; k += WG) {
+        sum += q_src(openings[first + k]);
     }
-    c = c * (1.0 / f32(n));
+    red4[li] = vec4<f32>(sum, 0.0);
+    workgroupBarrier();
+    tree_sum4(li);
+    let c = red4[0].xyz * (1.0 / f32(n));
+    workgroupBarrier();
     var vol6 = 0.0;
     var cg = vec3<f32>(0.0);
-    for (var k = 0u; k < n; k++) {
+    for (var k = li; k < n; k += WG) {
         let xi = q_src(openings[first + k]);
         let xj = q_src(openings[first + (k + 1u) % n]);
         vol6 += dot(xj - anchor, cross(xi - anchor, c - anchor));
         cg += cross(xi - xj, c - xj) * (1.0 / 6.0);
     }
-    cap_data[2u * o] = vec4<f32>(c, vol6);
-    cap_data[2u * o + 1u] = vec4<f32>(cg, f32(n));
+    red4[li] = vec4<f32>(cg, vol6);
+    workgroupBarrier();
+    tree_sum4(li);
+    if (li == 0u) {
+        cap_data[2u * o] = vec4<f32>(c, red4[0].w);
+        cap_data[2u * o + 1u] = vec4<f32>(red4[0].xyz, f32(n));
+    }
 }
 
 // Pass 2 (one workgroup per gas body): sum the rows, add the caps, then V and P = nRT / max(V, 1e-3 V0) - P_ext.

@@ -102,6 +102,22 @@ fn forces_match_the_cpu_through_the_caps_of_a_punctured_ball() {
     assert_forces_match("punctured ball (caps)", &ctx, &m, &s2);
 }
 
+/// The same through the openings of the fracture scene's ball after 0.3 s, torn in many places: some openings'
+/// loops are longer than a workgroup (the caps kernel shares a loop among 64 invocations and sums it in a tree).
+#[test]
+fn forces_match_the_cpu_through_the_long_openings_of_a_torn_ball() {
+    let Some(ctx) = gpu() else { return };
+    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/fracture.toml");
+    let scene = fissure::scene::Scene::load(&path).unwrap();
+    let mut w = scene.world::<f32>().unwrap();
+    w.advance(0.3, scene.solver.dt).unwrap();
+    let m = &w.model;
+    let longest = m.openings.iter().map(|o| o.vertices.len()).max().unwrap_or(0);
+    eprintln!("{} openings, the longest loop {longest} vertices", m.openings.len());
+    assert!(m.has_pressure() && longest > 64, "no opening longer than a workgroup: {longest}");
+    assert_forces_match("torn ball (long openings)", &ctx, m, &w.state);
+}
+
 fn assert_trajectories_match(
     name: &str,
     ctx: &GpuContext,

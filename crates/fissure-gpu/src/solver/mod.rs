@@ -590,7 +590,10 @@ impl GpuSolver {
         let nt = groups(m.tri_count());
         self.dispatch(pass, k!("surface_cross"), cur, clock, nt);
         if self.packed.n_caps > 0 {
-            self.dispatch(pass, k!("surface_caps"), cur, clock, groups(self.packed.n_caps as usize));
+            // One workgroup per opening (surface.wgsl).
+            let caps = self.packed.n_caps.max(1);
+            let x = caps.min(MAX_GROUPS);
+            self.dispatch(pass, k!("surface_caps"), cur, clock, (x, caps.div_ceil(x)));
         }
         if self.packed.n_gas > 0 {
             self.dispatch(pass, k!("surface_volume"), cur, clock, (self.packed.n_gas, 1));
