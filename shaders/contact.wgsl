@@ -1,8 +1,8 @@
 // Contact between surfaces: the twin of `fissure_core::solver::contact` (the model is documented in
 // `fissure_core::contact`). Encoded only when the model has contact. Per substep:
-//  - at its start (`contact_save`, `contact_edges`, `contact_scan_sums`, `contact_scan_spread`,
-//    `contact_scatter`): the positions are saved and two hashed uniform grids are built from them by a counting
-//    sort with u32 atomics, one of the contact vertices, one of the midpoints of the contact edges;
+//  - at its start (`contact_count`, `contact_scan_sums`, `contact_scan_spread`, `contact_scatter`): the positions
+//    are saved and two hashed uniform grids are built from them by a counting sort with u32 atomics, one of the
+//    contact vertices, one of the midpoints of the contact edges;
 //  - after the integrator and the colliders (`contact_moves` … `contact_apply`): the largest move sets the search
 //    reach `r = h_max + d_max / GAMMA`; every vertex–triangle and edge–edge pair closer than its own reach
 //    (`pair_reach`: the same with its four particles' largest move) at the start is listed
@@ -193,30 +193,32 @@ fn allowed(a: u32, b: u32) -> bool {
     return a != b || c_body[a].z != 0.0;
 }
 
+// Each contact particle's start position saved and counted into the vertex grid, with its body's box; each
+// contact edge's midpoint counted into the edge grid, with the longest half edge. One dispatch over particles,
+// then edges (two, first, cost a dependent dispatch's ~7 µs more on an H200 for nothing). The edges read the
+// state, not `c_x0`, which this dispatch writes. `c_ctl`'s largest move and longest half edge are emptied by
+// `contact_args` for the next substep (and by the submission's clear for its first).
 @compute @workgroup_size(64)
-fn contact_save(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>) {
-    let i = flat_index(gid, nwg);
-    if (i == 0u) {
+fn contact_count(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>) {
+    let k = flat_index(gid, nwg);
+    if (k == 0u) {
         atomicStore(&c_ctl[0], 0u);
-        atomicStore(&c_ctl[1], 0u);
-        atomicStore(&c_ctl[2], 0u);
         atomicAdd(&c_ctl[7], 1u);
     }
-    if (i >= particle_count()) { return; }
-    let x = q_src(i);
-    c_x0[i] = vec4<f32>(x, 0.0);
-    if (c_part[i].z == 0u) { return; }
-    atomicAdd(&c_grid[bucket_of(cell_of(x))], 1u);
-    let o = body_box_at(c_part[i].y);
-    for (var c = 0u; c < 3u; c++) {
-        atomicMin(&c_ctl[o + c], ordered(x[c]));
-        atomicMax(&c_ctl[o + 3u + c], ordered(x[c]));
+    let n = particle_count();
+    if (k < n) {
+        let x = q_src(k);
+        c_x0[k] = vec4<f32>(x, 0.0);
+        if (c_part[k].z == 0u) { return; }
+        atomicAdd(&c_grid[bucket_of(cell_of(x))], 1u);
+        let o = body_box_at(c_part[k].y);
+        for (var c = 0u; c < 3u; c++) {
+            atomicMin(&c_ctl[o + c], ordered(x[c]));
+            atomicMax(&c_ctl[o + 3u + c], ordered(x[c]));
+        }
+        return;
     }
-}
-
-@compute @workgroup_size(64)
-fn contact_edges(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>) {
-    let e = flat_index(gid, nwg);
+    let e = k - n;
     if (e >= params.contact_n.x) { return; }
     let ab = c_edges[e];
     let a = q_src(ab.x);
@@ -460,6 +462,9 @@ fn pair_count() -> u32 {
 // capacity's worth. Also empties the bodies' boxes for the next substep.
 @compute @workgroup_size(1)
 fn contact_args() {
+    // The searches are done: the largest move and the longest half edge start empty for the next substep.
+    atomicStore(&c_ctl[1], 0u);
+    atomicStore(&c_ctl[2], 0u);
     for (var b = 0u; b < params.counts.w; b++) {
         for (var c = 0u; c < 3u; c++) {
             atomicStore(&c_ctl[body_box_at(b) + c], 0xffffffffu);

@@ -67,7 +67,7 @@ pub const SHADERS: [(&str, &str); 5] = [
 /// than 8 storage buffers, WebGPU's default `maxStorageBuffersPerShaderStage` (what a browser grants without
 /// asking): one layout with all 19 would need a device that allows 19. `tests/wgsl.rs` checks the table against
 /// what naga finds each entry point using.
-pub const KERNEL_BINDINGS: [(&str, &[u32]); 29] = [
+pub const KERNEL_BINDINGS: [(&str, &[u32]); 28] = [
     ("integrate_symplectic_euler", &FORCE_GATHER),
     ("integrate_verlet_first", &FORCE_GATHER),
     ("integrate_verlet_second", &FORCE_GATHER),
@@ -82,8 +82,7 @@ pub const KERNEL_BINDINGS: [(&str, &[u32]); 29] = [
     ("collide", &[2, 3, 13, 14]),
     ("strain_check", &[1, 5, 6, 19]),
     ("load_check", &[1, 3, 4, 5, 6, 9, 19]),
-    ("contact_save", &[1, 20, 23, 24, 26]),
-    ("contact_edges", &[1, 22, 24, 26]),
+    ("contact_count", &[1, 20, 22, 23, 24, 26]),
     ("contact_scan_sums", &[30]),
     ("contact_scan_spread", &[30]),
     ("contact_scatter", &[20, 22, 23, 24]),

@@ -12,8 +12,7 @@ impl GpuSolver {
     pub(super) fn encode_contact_start(&mut self, pass: &mut wgpu::ComputePass<'_>, clock: usize) {
         let (n, ne) = (self.particle_count(), self.packed.contact.edges.len());
         let cur = self.cur;
-        self.dispatch(pass, k!("contact_save"), cur, clock, groups(n));
-        self.dispatch(pass, k!("contact_edges"), cur, clock, groups(ne));
+        self.dispatch(pass, k!("contact_count"), cur, clock, groups(n + ne));
         let blocks = self.packed.contact.scan_blocks() as u32;
         self.dispatch(pass, k!("contact_scan_sums"), cur, clock, (blocks, 1));
         self.dispatch(pass, k!("contact_scan_spread"), cur, clock, (blocks, 1));

@@ -11,7 +11,7 @@
 //! | `surface_volume` | gas |
 //! | `integrate_symplectic_euler` or `integrate_verlet_first` + `integrate_verlet_second` | always |
 //! | `collide` | colliders |
-//! | `contact_save`, `contact_edges`, `contact_scan_sums`, `contact_scan_spread`, `contact_scatter` (before the integrator) | contact |
+//! | `contact_count`, `contact_scan_sums`, `contact_scan_spread`, `contact_scatter` (before the integrator) | contact |
 //! | `contact_moves`, `contact_vt`, `contact_ee`, `contact_args`, `contact_prep`, `contact_jacobi_fused` (few pairs) or `contact_iterations` × `contact_jacobi_even`/`_odd`, `contact_friction`, `contact_apply` | contact |
 //! | `strain_check` / `surface_pressure` + `load_check` | breakable springs / vertices (the pressure pass: gas) |
 //! | `finite_check` | once per submission, with `check_finite` |
