@@ -109,8 +109,7 @@ fn assert_same_pairs(ctx: &fissure_gpu::GpuContext, m: &Model<f32>, h: f64) {
 #[test]
 fn contact_trajectories_match_the_cpu_on_the_balloons_scene() {
     let Some(ctx) = gpu() else { return };
-    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/balloons.toml");
-    let scene = fissure::scene::Scene::load(&path).unwrap();
+    let scene = scene_check::scene("balloons");
     let mut w = scene.world::<f32>().unwrap();
     let dt = scene.solver.dt;
     for _ in 0..560 {

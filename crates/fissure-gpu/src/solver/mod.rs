@@ -30,7 +30,10 @@ use crate::layout::{self, CLOCK_STRIDE, Clock, GpuCollider, MAX_GPU_HANDLES, Mir
 use crate::{GpuError, KERNEL_BINDINGS, READ_WRITE_BINDINGS, SHADERS, shader_source};
 
 mod bind;
+mod config;
 mod scratch;
+
+pub use config::{Candidates, GpuConfig, RunReport};
 
 use scratch::{SCRATCH, Scratch, scratch, scratch_sizes};
 
@@ -38,79 +41,6 @@ use scratch::{SCRATCH, Scratch, scratch, scratch_sizes};
 const WG: u32 = 64;
 /// Largest workgroup count along one dispatch dimension (WebGPU's guaranteed minimum).
 const MAX_GROUPS: u32 = 65535;
-
-/// GPU solver settings.
-#[derive(Clone, Debug, PartialEq)]
-pub struct GpuConfig {
-    /// Symplectic Euler (default) or velocity Verlet; the others are CPU-only.
-    pub integrator: Integrator,
-    /// Read the status word after each submission and fail with [`GpuError::NonFinite`] if a velocity became
-    /// NaN or infinite. Default true; the cost is one 16-byte read-back per submission, not per substep.
-    pub check_finite: bool,
-    /// Fracture candidates kept per kind per submission (the counters count past it). Default 4096.
-    pub candidate_capacity: u32,
-    /// Cells along the longest side of a baked signed-distance grid (triangle-mesh colliders). Default 64.
-    pub sdf_cells: u32,
-    /// Contact pairs one substep can hold; 0 (default): 4 per particle in contact plus 1,024. A substep that
-    /// finds more fails the run with [`GpuError::ContactCapacity`].
-    pub contact_capacity: u32,
-    /// Jacobi iterations of the contact impulses per substep, rounded up to an even number. Default 16.
-    pub contact_iterations: u32,
-    /// Pairs up to which a submission runs all Jacobi iterations of a substep in one dispatch (one workgroup,
-    /// `contact_jacobi_fused`) instead of one dispatch each, judged by the pairs the last submission's last substep
-    /// had. Both give the same bits; the choice is one of speed only. Default 256 (one pair per invocation of the
-    /// workgroup); 0: one dispatch per iteration. On an H200, the 128² fold with ~710 pairs: 16 iterations took
-    /// ~290 µs of a substep in one workgroup against ~170 µs as 16 dispatches; on an H100, cloth_fold's ~215 pairs
-    /// took 13–14 % less of the whole substep in one workgroup (`benches/RESULTS.md`).
-    pub contact_fused_pairs: u32,
-    /// Time every kernel on the device: a timestamp after each dispatch of a submission (at most
-    /// [`crate::KERNEL_TIMESTAMPS`] − 1 of them), read back after it, each kernel's time added to
-    /// [`GpuSolver::kernel_times`] and to its stage in the stage timers (the integrators and the force gather
-    /// under `integrate`, the surface kernels under `surface`, `collide`, the contact kernels under `contact`,
-    /// the strain and load checks under `fracture`). A kernel's time runs from the timestamp before it to the
-    /// one after, so it includes the wait for the kernels it depends on to finish. Needs timestamp queries inside
-    /// passes (Vulkan, Metal and D3D12 adapters; not browsers): [`GpuSolver::new`] fails without them
-    /// ([`GpuError::NoKernelTimers`]); [`crate::GpuContext`] asks for them where the adapter has them. Costs
-    /// one read-back a submission. Default false.
-    pub kernel_timers: bool,
-}
-
-impl Default for GpuConfig {
-    fn default() -> Self {
-        GpuConfig {
-            integrator: Integrator::SymplecticEuler,
-            check_finite: true,
-            candidate_capacity: 4096,
-            sdf_cells: 64,
-            contact_capacity: 0,
-            contact_iterations: 16,
-            contact_fused_pairs: 256,
-            kernel_timers: false,
-        }
-    }
-}
-
-/// What a submission found (zeros where it did not look).
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
-pub struct RunReport {
-    /// Substeps run.
-    pub steps: usize,
-    /// Springs flagged past their strain limit (summed over substeps, may repeat).
-    pub spring_candidates: u32,
-    /// Vertices flagged past their load limit (summed over substeps, may repeat).
-    pub vertex_candidates: u32,
-}
-
-/// The fracture candidates of the last submission, sorted, without repeats.
-#[derive(Clone, Debug, Default, PartialEq, Eq)]
-pub struct Candidates {
-    /// Springs past their strain limit.
-    pub springs: Vec<u32>,
-    /// Vertices past their load limit.
-    pub vertices: Vec<u32>,
-    /// More were flagged than the capacity holds (the lists are incomplete).
-    pub overflow: bool,
-}
 
 /// The kernels, each with its bind group layout, in the order of [`KERNEL_BINDINGS`].
 struct Kernels {
@@ -147,7 +77,11 @@ macro_rules! k {
 
 // After `k!`, which they use.
 mod contact;
+mod timers;
 mod transfer;
+
+pub use timers::KERNEL_TIMESTAMPS;
+use timers::Profile;
 
 /// The wgpu solver (f32). See the module docs.
 pub struct GpuSolver {
@@ -202,23 +136,6 @@ pub struct GpuSolver {
     timers: StageTimers,
     /// The kernel timers ([`GpuConfig::kernel_timers`]).
     profile: Option<Profile>,
-}
-
-/// Timestamps a submission may write with [`GpuConfig::kernel_timers`]: wgpu's largest query set.
-pub const KERNEL_TIMESTAMPS: u32 = wgpu::QUERY_SET_MAX_QUERIES;
-
-/// The kernel timers' query set and what they have summed (see [`GpuConfig::kernel_timers`]).
-struct Profile {
-    set: wgpu::QuerySet,
-    resolve: wgpu::Buffer,
-    /// Nanoseconds per timestamp tick.
-    period: f64,
-    /// Timestamps are being written (inside a submission's pass).
-    on: bool,
-    /// The kernel of each timestamp after the first, this submission.
-    stamps: Vec<usize>,
-    /// Per kernel (in [`KERNEL_BINDINGS`] order): time and dispatches timed.
-    sums: Vec<(std::time::Duration, u64)>,
 }
 
 fn buffer_entry(binding: u32, ty: wgpu::BufferBindingType, dynamic: bool, min: u64) -> wgpu::BindGroupLayoutEntry {
@@ -363,24 +280,7 @@ impl GpuSolver {
         let clock = Self::clock_buffer(&device, clock_capacity);
         let clock_bind = Self::clock_bind(&device, &layout1, &clock);
         let scratch = scratch(&device, &queue, model, &packed, config.contact_capacity);
-        let profile = if config.kernel_timers {
-            let need = wgpu::Features::TIMESTAMP_QUERY | wgpu::Features::TIMESTAMP_QUERY_INSIDE_PASSES;
-            if !device.features().contains(need) {
-                return Err(GpuError::NoKernelTimers);
-            }
-            let set = device.create_query_set(&wgpu::QuerySetDescriptor {
-                label: Some("kernel timers"),
-                ty: wgpu::QueryType::Timestamp,
-                count: KERNEL_TIMESTAMPS,
-            });
-            let usage = wgpu::BufferUsages::QUERY_RESOLVE | wgpu::BufferUsages::COPY_SRC;
-            let resolve = layout::create(&device, "kernel timestamps", KERNEL_TIMESTAMPS as usize * 8, usage);
-            let sums = vec![(std::time::Duration::ZERO, 0); KERNEL_BINDINGS.len()];
-            let period = queue.get_timestamp_period() as f64;
-            Some(Profile { set, resolve, period, on: false, stamps: Vec::new(), sums })
-        } else {
-            None
-        };
+        let profile = if config.kernel_timers { Some(Profile::new(&device, &queue)?) } else { None };
         let mut s = GpuSolver {
             device,
             queue,
@@ -519,55 +419,6 @@ impl GpuSolver {
         self.stamp(pass, k);
     }
 
-    /// With the kernel timers on, a timestamp after kernel `k`'s dispatch (while the submission has room).
-    fn stamp(&mut self, pass: &mut wgpu::ComputePass<'_>, k: usize) {
-        if let Some(p) = &mut self.profile
-            && p.on
-            && (p.stamps.len() + 1) < KERNEL_TIMESTAMPS as usize
-        {
-            p.stamps.push(k);
-            pass.write_timestamp(&p.set, p.stamps.len() as u32);
-        }
-    }
-
-    /// The kernel timers' sums: each kernel timed, its device time and dispatches, in [`KERNEL_BINDINGS`] order
-    /// (empty without [`GpuConfig::kernel_timers`]). Reset with the stage timers.
-    pub fn kernel_times(&self) -> Vec<(&'static str, std::time::Duration, u64)> {
-        let Some(p) = &self.profile else { return Vec::new() };
-        KERNEL_BINDINGS
-            .iter()
-            .zip(&p.sums)
-            .filter(|(_, (_, calls))| *calls > 0)
-            .map(|((name, _), &(t, calls))| (*name, t, calls))
-            .collect()
-    }
-
-    fn reset_kernel_times(&mut self) {
-        if let Some(p) = &mut self.profile {
-            p.sums.iter_mut().for_each(|s| *s = Default::default());
-        }
-    }
-
-    /// Adds a submission's timestamps (ticks; the first before its first kernel) to the kernel timers and to the
-    /// stage timers.
-    fn take_timestamps(&mut self, ticks: &[u64]) {
-        let Some(p) = &mut self.profile else { return };
-        for (w, &k) in ticks.windows(2).zip(&p.stamps) {
-            let d = std::time::Duration::from_nanos((w[1].saturating_sub(w[0]) as f64 * p.period) as u64);
-            p.sums[k].0 += d;
-            p.sums[k].1 += 1;
-            let name = KERNEL_BINDINGS[k].0;
-            let stage = match name {
-                "collide" => Stage::Collide,
-                "strain_check" | "load_check" => Stage::Fracture,
-                _ if name.starts_with("contact") => Stage::Contact,
-                _ if name.starts_with("surface") || name == "cap_force" => Stage::Surface,
-                _ => Stage::Integrate,
-            };
-            self.timers.add_time(stage, d);
-        }
-    }
-
     /// Sets kernel `k`'s pipeline and bind groups (state `cur`, clock entry `clock`) and records the pass.
     fn bind_kernel(&mut self, pass: &mut wgpu::ComputePass<'_>, k: usize, cur: usize, clock: usize) {
         pass.set_pipeline(&self.kernels.pipelines[k]);
@@ -698,9 +549,7 @@ impl GpuSolver {
             let mut pass =
                 enc.begin_compute_pass(&wgpu::ComputePassDescriptor { label: Some("substeps"), ..Default::default() });
             if let Some(p) = &mut self.profile {
-                p.on = true;
-                p.stamps.clear();
-                pass.write_timestamp(&p.set, 0);
+                p.begin(&mut pass);
             }
             for k in 0..steps {
                 self.encode_step(&mut pass, m, k);
@@ -711,8 +560,7 @@ impl GpuSolver {
             }
         }
         if let Some(p) = &mut self.profile {
-            p.on = false;
-            enc.resolve_query_set(&p.set, 0..p.stamps.len() as u32 + 1, &p.resolve, 0);
+            p.end(&mut enc);
         }
         let read = self.config.check_finite || m.has_fracture() || contact;
         if read {
@@ -733,7 +581,10 @@ impl GpuSolver {
         }
         if let Some(p) = &self.profile {
             let bytes = self.read_bytes(&p.resolve, 8 * (p.stamps.len() as u64 + 1)).await?;
-            self.take_timestamps(&bytemuck::pod_collect_to_vec::<u8, u64>(&bytes));
+            let ticks = bytemuck::pod_collect_to_vec::<u8, u64>(&bytes);
+            if let Some(p) = &mut self.profile {
+                p.take(&ticks, &mut self.timers);
+            }
         }
         self.timers.steps += steps as u64;
         self.timers.total += t0.elapsed();
