@@ -2,10 +2,22 @@
 //! bounds of [`fissure::stability`].
 //!
 //! A run lasts a fixed simulated time (N times the symplectic Euler bound) and is stable when every step succeeds
-//! (no NaN) and the fastest particle stays below 10× the fastest of a reference run at 1/16 of the bound, plus
-//! what gravity adds and 1 m/s; the state starts with a small random velocity (1 cm/s, seeded) so every mode is
-//! excited. A step just past the limit grows slowly, so the bisection
-//! can overestimate the limit by the few percent a mode growing by less than ~50× in the run hides.
+//! (no NaN) and the fastest particle stays below 2× the fastest of a reference run at 1/16 of the bound, plus
+//! what gravity adds over any time the run lasts beyond the reference and 0.1 m/s; the state starts with a small
+//! random velocity (1 cm/s, seeded) so every mode is excited.
+//!
+//! The criterion was 10× the reference's speed plus `g T` and 1 m/s until 2026-11-27. That counted as stable a run
+//! whose fast modes had grown to ~8× the scene's own speeds and saturated there: on the soft hanging cloth
+//! (k = 100 N/m, up to ~300 % strain) symplectic Euler resonates from ~0.84× its linear limit (the fastest particle
+//! at 130–175 m/s against the reference's 16), and the old criterion read its limit at the blow-up instead
+//! (0.98× the bound); RK4 runs whose fast modes had grown 3× passed too (the ball's RK4 cells read 1.07–1.13×
+//! instead of 1.03–1.05×). `benches/RESULTS.md` (issue 15, (36)) has the measurements.
+//!
+//! Each cell is checked against a band that catches a wrong bound (0.9–1.15× the measured limit) and against
+//! issue 15's target (1.0–1.1×). Cells whose reference run stretches some spring past [`NONLINEAR_STRAIN`] are
+//! reported against the target only: there the limits are set by the motion, not the linearisation (symplectic
+//! Euler's nonlinear resonances below its linear limit, RK4's damping of fast modes that are unstable for a few
+//! steps at a time), which no bound from the frozen Jacobian can follow.
 
 use super::{Report, sig3};
 use crate::plot::{PALETTE, Plot, Series};
@@ -87,10 +99,14 @@ fn run_probe(
     Some(vmax)
 }
 
+/// The largest spring strain above which a scene's cells are judged against the target only (see the module docs):
+/// a spring stretched to 1.5× its rest length.
+const NONLINEAR_STRAIN: f64 = 0.5;
+
 /// Stability test at one scene and stiffness: a run is stable when no step fails and its fastest particle stays
-/// below 10× the fastest of a reference run (symplectic Euler at 1/16 of its bound, same duration) plus what
-/// gravity adds over the run and 1 m/s. Judging speed against the scene's own motion keeps physical motion (a
-/// ball inflating, a cloth falling) from reading as instability.
+/// below 2× the fastest of a reference run (symplectic Euler at 1/16 of its bound, same duration) plus what
+/// gravity adds over the time the run lasts beyond the reference and 0.1 m/s. Judging speed against the scene's
+/// own motion keeps physical motion (a ball inflating, a cloth falling) from reading as instability.
 struct Probe<'a> {
     model: &'a Model<f64>,
     t_end: f64,
@@ -100,7 +116,8 @@ struct Probe<'a> {
 impl Probe<'_> {
     fn stable(&self, integrator: Integrator, dt: f64) -> bool {
         let t_run = (self.t_end / dt).ceil().max(50.0) * dt;
-        max_speed(self.model, integrator, dt, self.t_end).is_some_and(|v| v <= 10.0 * self.v_ref + 9.81 * t_run + 1.0)
+        max_speed(self.model, integrator, dt, self.t_end)
+            .is_some_and(|v| v <= 2.0 * self.v_ref + 9.81 * (t_run - self.t_end).max(0.0) + 0.1)
     }
 }
 
@@ -139,7 +156,8 @@ pub fn run(r: &mut Report) -> Result<(), String> {
         r.md,
         "\n### Stability\n\nLargest stable step (bisection to 1%, f64) against spring stiffness. Each run lasts {steps}× \
          the symplectic Euler bound (at least 50 steps), from a state with 1 cm/s of seeded velocity noise; stable = \
-         no NaN and speeds below 10× those of a run at 1/16 of the bound (plus g·T + 1 m/s). Bounds: the 1-DOF `2/ω` with \
+         no NaN and speeds below 2× those of a run at 1/16 of the bound (plus what gravity adds in any time beyond that \
+         run's, and 0.1 m/s); largest strain: the most any spring stretches in that run. Bounds: the 1-DOF `2/ω` with \
          `ω = √(k/m)` of one spring on one particle, the solver's bound (`fissure::stability`: power iteration, \
          damping included, the tightest of the initial shape and 64 shapes along the reference run), and Gershgorin's; velocity Verlet has the same as symplectic Euler undamped, RK4 2√2/ω). The implicit \
          integrator is searched up to {cap} s. Cloth: {} Warp-layout cloth, held along one edge, damping 0.01 N·s/m. \
@@ -152,7 +170,7 @@ pub fn run(r: &mut Report) -> Result<(), String> {
     for name in ["cloth", "ball"] {
         let _ = writeln!(
             r.md,
-            "| {name}: k [N/m] | bound SE / RK4 [s] | Gershgorin SE [s] | 2/ω 1-DOF [s] | symplectic_euler | velocity_verlet | rk4 | implicit_euler |\n|---|---|---|---|---|---|---|---|"
+            "| {name}: k [N/m] | largest strain | bound SE / RK4 [s] | Gershgorin SE [s] | 2/ω 1-DOF [s] | symplectic_euler | velocity_verlet | rk4 | implicit_euler |\n|---|---|---|---|---|---|---|---|---|"
         );
         let mut measured: Vec<Vec<(f64, f64)>> = vec![Vec::new(); 4];
         let (mut b_se, mut b_rk, mut b_g, mut one) = (Vec::new(), Vec::new(), Vec::new(), Vec::new());
@@ -168,10 +186,14 @@ pub fn run(r: &mut Report) -> Result<(), String> {
             let mut bounds = vec![initial];
             let mut mode = Vec::new();
             let (mut step, every) = (0usize, ((t_end / (se0 / 16.0)).ceil() as usize).max(50) / 64);
+            let mut strain = 0.0f64;
             let v_ref = run_probe(&model, Integrator::SymplecticEuler, se0 / 16.0, t_end, &mut |q| {
                 step += 1;
                 if step % every.max(1) == 0 {
                     bounds.push(StabilityBound::estimate(&model, q, &mut mode));
+                }
+                for (&[i, j], &l0) in model.spring_indices.iter().zip(&model.spring_rest_length) {
+                    strain = strain.max((q[j as usize] - q[i as usize]).length() / l0 - 1.0);
                 }
             })
             .ok_or_else(|| format!("{name} k = {k}: the reference run at 1/16 of the bound failed"))?;
@@ -201,8 +223,9 @@ pub fn run(r: &mut Report) -> Result<(), String> {
             one.push((k, one_dof));
             let _ = write!(
                 r.md,
-                "| {} | {} / {} | {} | {} |",
+                "| {} | {:.0}% | {} / {} | {} | {} |",
                 sig3(k),
+                strain * 100.0,
                 sig3(bound.max_dt(Integrator::SymplecticEuler)),
                 sig3(bound.max_dt(Integrator::Rk4)),
                 sig3(gersh.max_dt(Integrator::SymplecticEuler)),
@@ -213,7 +236,7 @@ pub fn run(r: &mut Report) -> Result<(), String> {
                 let (dt, at_cap) = largest_stable(&probe, *integrator, b, cap);
                 let ratio = dt.map_or(f64::NAN, |d| d / b);
                 if b.is_finite() && !at_cap {
-                    ratios.push(ratio);
+                    ratios.push((ratio, strain > NONLINEAR_STRAIN));
                 }
                 let cell = match (dt, at_cap) {
                     (None, _) => "unstable at bound/16".to_string(),
@@ -240,10 +263,21 @@ pub fn run(r: &mut Report) -> Result<(), String> {
                         dt.map_or("unstable".into(), |d| format!("stable up to {} s", sig3(d))),
                     );
                 } else {
-                    r.check(
-                        format!("{name} k={}: {} stable dt at 0.9–1.15× its bound", sig3(k), integrator.name()),
-                        (0.9..=1.15).contains(&ratio),
-                        format!("measured {} s, bound {} s ({ratio:.2}×)", sig3(dt.unwrap_or(f64::NAN)), sig3(b)),
+                    let detail =
+                        format!("measured {} s, bound {} s ({ratio:.2}×)", sig3(dt.unwrap_or(f64::NAN)), sig3(b));
+                    // The check: the bound is the right estimate (a regression in it moves a ratio out of this
+                    // band). The target (issue 15): within 10% and never above the measured limit.
+                    if strain <= NONLINEAR_STRAIN {
+                        r.check(
+                            format!("{name} k={}: {} stable dt at 0.9–1.15× its bound", sig3(k), integrator.name()),
+                            (0.9..=1.15).contains(&ratio),
+                            detail.clone(),
+                        );
+                    }
+                    r.target(
+                        format!("{name} k={}: {} stable dt at 1.0–1.1× its bound", sig3(k), integrator.name()),
+                        (1.0..=1.1).contains(&ratio),
+                        detail,
                     );
                 }
             }
@@ -259,15 +293,29 @@ pub fn run(r: &mut Report) -> Result<(), String> {
         plot.series.push(Series::dashed("1-DOF 2/w", one, [0, 0, 0]));
         r.plot(&format!("stability-{name}.png"), &plot).map_err(|e| e.to_string())?;
     }
-    let (lo, hi) = ratios.iter().fold((f64::INFINITY, 0.0f64), |(a, b), &x| (a.min(x), b.max(x)));
+    let span = |nonlinear: bool| {
+        ratios.iter().filter(|r| r.1 == nonlinear).fold((f64::INFINITY, 0.0f64), |(a, b), &(x, _)| (a.min(x), b.max(x)))
+    };
+    let ((lo, hi), (nlo, nhi)) = (span(false), span(true));
     let _ = writeln!(
         r.md,
-        "Reading it: the measured limits of the explicit integrators lie at {lo:.2}–{hi:.2}× the solver's bound on \
-         both scenes and at every stiffness. The bound is the power-iteration estimate of the fastest mode (plus 3%) \
+        "Reading it: where no spring stretches past {:.0}% the measured limits of the explicit integrators lie at \
+         {lo:.2}–{hi:.2}× the solver's bound. The bound is the power-iteration estimate of the fastest mode (plus 3%) \
          at the initial shape and along the run, as `SolverConfig::substep_safety` re-estimates it every 256 steps \
          (a soft hanging cloth stretches and stiffens transversally: at the initial shape alone its bound would be \
          too large); Gershgorin's bound, the solver's before, lies 1.3–1.6× below the measured limits. The 1-DOF line \
-         `2/ω` of a single spring lies above all: a particle held by a dozen springs is stiffer than one spring.\n"
+         `2/ω` of a single spring lies above all: a particle held by a dozen springs is stiffer than one spring.{}\n",
+        NONLINEAR_STRAIN * 100.0,
+        if nlo.is_finite() {
+            format!(
+                " Where springs stretch further (the softest cloth) the limits lie at {nlo:.2}–{nhi:.2}× the bound: \
+                 symplectic Euler and velocity Verlet resonate below their linear limits, RK4 damps fast modes that \
+                 are unstable for a few steps at a time (the module docs of `harness::stability`); substeps there \
+                 want `substep_safety` ≤ 0.8."
+            )
+        } else {
+            String::new()
+        }
     );
     r.csv("stability.csv", "scene,k_n_per_m,integrator,bound_s,measured_s,at_search_cap,measured_over_bound", &rows)
         .map_err(|e| e.to_string())?;

@@ -63,6 +63,8 @@ pub struct SolverConfig {
     /// most `s ×` the explicit stability bound of the model ([`crate::stability::StabilityBound`]). Default
     /// `None`: the caller's `dt` is used as given. The bound is cached and recomputed when the model's counts
     /// change or after [`Solver::notify_model_changed`]; call that after editing stiffness or masses in place.
+    /// Where springs stretch far (past ~50 %), take `s` ≤ 0.8 with symplectic Euler or velocity Verlet: they
+    /// resonate below their linear limit there (the module docs of [`crate::stability`]).
     pub substep_safety: Option<f64>,
 }
 
