@@ -15,9 +15,9 @@
 //!
 //! Each cell is checked against a band that catches a wrong bound (0.9–1.15× the measured limit) and against
 //! issue 15's target (1.0–1.1×). Cells whose reference run stretches some spring past [`NONLINEAR_STRAIN`] are
-//! reported against the target only: there the limits are set by the motion, not the linearisation (symplectic
-//! Euler's nonlinear resonances below its linear limit, RK4's damping of fast modes that are unstable for a few
-//! steps at a time), which no bound from the frozen Jacobian can follow.
+//! checked against a wider band (0.75–1.2×): there the limits are set by the motion, not the linearisation
+//! (symplectic Euler's nonlinear resonances below its linear limit, RK4's damping of fast modes that are unstable
+//! for a few steps at a time), which no bound from the frozen Jacobian can follow.
 
 use super::{Report, sig3};
 use crate::plot::{PALETTE, Plot, Series};
@@ -267,13 +267,14 @@ pub fn run(r: &mut Report) -> Result<(), String> {
                         format!("measured {} s, bound {} s ({ratio:.2}×)", sig3(dt.unwrap_or(f64::NAN)), sig3(b));
                     // The check: the bound is the right estimate (a regression in it moves a ratio out of this
                     // band). The target (issue 15): within 10% and never above the measured limit.
-                    if strain <= NONLINEAR_STRAIN {
-                        r.check(
-                            format!("{name} k={}: {} stable dt at 0.9–1.15× its bound", sig3(k), integrator.name()),
-                            (0.9..=1.15).contains(&ratio),
-                            detail.clone(),
-                        );
-                    }
+                    // Past NONLINEAR_STRAIN the band is wider (the motion sets the limits there), still narrow
+                    // enough that a bound off by a quarter fails.
+                    let (lo, hi) = if strain <= NONLINEAR_STRAIN { (0.9, 1.15) } else { (0.75, 1.2) };
+                    r.check(
+                        format!("{name} k={}: {} stable dt at {lo}–{hi}× its bound", sig3(k), integrator.name()),
+                        (lo..=hi).contains(&ratio),
+                        detail.clone(),
+                    );
                     r.target(
                         format!("{name} k={}: {} stable dt at 1.0–1.1× its bound", sig3(k), integrator.name()),
                         (1.0..=1.1).contains(&ratio),
