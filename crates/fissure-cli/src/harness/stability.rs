@@ -99,7 +99,7 @@ fn run_probe(
     Some(vmax)
 }
 
-/// The largest spring strain above which a scene's cells are judged against the target only (see the module docs):
+/// The largest spring strain above which a scene's cells are checked against the wider band (see the module docs):
 /// a spring stretched to 1.5× its rest length.
 const NONLINEAR_STRAIN: f64 = 0.5;
 
