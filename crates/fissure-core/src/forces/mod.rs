@@ -10,7 +10,11 @@
 pub mod pressure;
 pub(crate) mod runs;
 #[cfg(target_arch = "x86_64")]
+mod runs_avx2;
+#[cfg(target_arch = "x86_64")]
 mod runs_avx512;
+#[cfg(all(test, target_arch = "x86_64"))]
+mod span_check;
 pub mod spring;
 pub mod wind;
 pub(crate) mod wind_grid;

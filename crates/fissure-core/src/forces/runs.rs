@@ -1,6 +1,6 @@
 //! The run kernel: spring forces summed per block of particles over a model's [`crate::model::SpringRun`]s (cloth
-//! grids), on contiguous slices, vectorised ([`super::spring::span_forces`]; in `f32` on AVX-512 by hand, with the
-//! sums added in the same loop where the order allows: `super::runs_avx512`).
+//! grids), on contiguous slices, vectorised ([`super::spring::span_forces`]; in `f32` on AVX-512 and on AVX2 by
+//! hand, with the sums added in the same loop where the order allows: `super::runs_avx512`, `super::runs_avx2`).
 
 use super::spring::{SPAN, SpanScratch, StrainSink, span_forces};
 use crate::model::Model;
@@ -200,8 +200,13 @@ fn run_block<R: Real, const PROJECTED: bool>(
     let one_loop = crate::isa::avx512();
     #[cfg(not(target_arch = "x86_64"))]
     let one_loop = false;
-    // `f32` on AVX-512: the spans by hand (`super::runs_avx512`), adding into the block as they go.
-    let by_hand = one_loop && std::any::TypeId::of::<R>() == std::any::TypeId::of::<f32>();
+    // `f32` on AVX-512 or AVX2: the spans by hand (`super::runs_avx512`, `super::runs_avx2`), adding into the block
+    // as they go.
+    #[cfg(target_arch = "x86_64")]
+    let wide = one_loop || crate::isa::avx2();
+    #[cfg(not(target_arch = "x86_64"))]
+    let wide = false;
+    let by_hand = wide && std::any::TypeId::of::<R>() == std::any::TypeId::of::<f32>();
     for &ri in blocks.of(p0) {
         let r = &m.spring_runs[ri as usize];
         let (i0, j0, len, s0) = (r.i as usize, r.j as usize, r.len as usize, r.first as usize);
@@ -253,18 +258,18 @@ fn run_block<R: Real, const PROJECTED: bool>(
                         (added.then(|| &mut block[at..at + n]), None)
                     };
                     let (add, sub) = (add.map(|b| as_f32_mut(R::flat_mut(b))), sub.map(|b| as_f32_mut(R::flat_mut(b))));
-                    // SAFETY: AVX-512 (`one_loop`); `span` checks the bounds.
+                    let ends = (as_f32(R::flat(q)), as_f32(R::flat(qd)), (i0 + k0, j0 + k0));
+                    let params = (as_f32(rs), as_f32(kss), as_f32(kds));
+                    // The buffer only for the passes below.
+                    let outs = [(!subtracted).then(|| as_f32_mut(R::flat_mut(&mut buf[..n]))), add, sub];
+                    let lens = strain.is_some().then(|| as_f32_mut(&mut scratch.l[..n]));
+                    // SAFETY: AVX-512 (`one_loop`) or else AVX2 (`wide`); `span` checks the bounds.
                     unsafe {
-                        super::runs_avx512::span::<PROJECTED>(
-                            as_f32(R::flat(q)),
-                            as_f32(R::flat(qd)),
-                            (i0 + k0, j0 + k0),
-                            (as_f32(rs), as_f32(kss), as_f32(kds)),
-                            n,
-                            // The buffer only for the passes below.
-                            [(!subtracted).then(|| as_f32_mut(R::flat_mut(&mut buf[..n]))), add, sub],
-                            strain.is_some().then(|| as_f32_mut(&mut scratch.l[..n])),
-                        )
+                        if one_loop {
+                            super::runs_avx512::span::<PROJECTED>(ends.0, ends.1, ends.2, params, n, outs, lens)
+                        } else {
+                            super::runs_avx2::span::<PROJECTED>(ends.0, ends.1, ends.2, params, n, outs, lens)
+                        }
                     };
                     true
                 };

@@ -384,8 +384,8 @@ impl<R: Real> SpanScratch<R> {
 /// divisions included), and the result is transposed back. Lanes past `out.len()` up to a multiple of
 /// [`LANES`] hold stale values from an earlier span: computed, never used. The maths is [`force_components`],
 /// lane by lane; `measure`: also each lane's length, into `t.l` (from [`force_parts`]: the strain is formed from
-/// it only where it is stored, see [`StrainSink::store`]). On AVX-512 the run kernel's `f32` spans go by hand
-/// instead (`super::runs_avx512`: the same bits).
+/// it only where it is stored, see [`StrainSink::store`]). On AVX-512 and AVX2 the run kernel's `f32` spans go by
+/// hand instead (`super::runs_avx512`, `super::runs_avx2`: the same bits).
 #[allow(clippy::too_many_arguments)]
 #[inline(always)]
 pub(super) fn span_forces<R: Real, const PROJECTED: bool>(
