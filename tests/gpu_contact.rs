@@ -281,11 +281,12 @@ fn slow_and_fast_bodies_in_a_crowd_never_cross_on_the_gpu() {
 
 /// The fracture scene on the GPU (its leak and fracture passes on the CPU, the state read back every step), run
 /// with `tests/contact_scenes.rs`'s check at every frame: pieces break away, touch the ball and never cross it or
-/// each other. It runs the first 0.75 s of the scene's 1.5: every core event but a few comes before 0.3 s, and the
-/// pieces have fallen onto the floor and the obstacles by 0.75 s. (`tests/contact_scenes.rs` runs the scene to its
-/// end on the CPU; the whole scene took 3 minutes here on lavapipe, a third of the CI's test time.) (On an H200, `fissure run scenes/fracture.toml --backend gpu`, whose frames are 1/30 s,
-/// capped 29,530 moves over the run against ~140 on lavapipe and on the CPU; this test, whose frames are 1/60 s,
-/// capped 142 there and found no crossing at any frame.)
+/// each other. It runs the scene's first 0.75 s of 1.5: all but 5 of its ~200 fracture events come before 0.3 s,
+/// and by 0.75 s the pieces lie on the floor and the obstacles. `tests/contact_scenes.rs` runs the whole scene on
+/// the CPU; here on lavapipe the whole scene took 3 minutes, a third of CI's test time (2026-11-27). (On an H200,
+/// `fissure run scenes/fracture.toml --backend gpu`, whose frames are 1/30 s, capped 29,530 moves over the run
+/// against ~140 on lavapipe and on the CPU; this test run to the scene's end, whose frames are 1/60 s, capped 142
+/// there and found no crossing at any frame.)
 #[test]
 fn fracture_scene_with_contact_keeps_pieces_out_of_the_ball_on_the_gpu() {
     let Some(ctx) = gpu() else { return };
