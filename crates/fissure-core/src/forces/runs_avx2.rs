@@ -81,8 +81,8 @@ pub(super) unsafe fn span<const PROJECTED: bool>(
     for c in 0..pairs {
         let (k0, k1) = (16 * c, 16 * c + 8);
         unsafe {
-            let (f0, l0) = forces::<PROJECTED, true>(ends(k0), params(k0), None, _mm256_setzero_si256());
-            let (f1, l1) = forces::<PROJECTED, true>(ends(k1), params(k1), None, _mm256_setzero_si256());
+            let (f0, l0) = forces::<PROJECTED>(ends(k0), params(k0), None);
+            let (f1, l1) = forces::<PROJECTED>(ends(k1), params(k1), None);
             emit([at(o[0], 3 * k0), at(o[1], 3 * k0), at(o[2], 3 * k0)], at(l, k0), f0, l0, None);
             emit([at(o[0], 3 * k1), at(o[1], 3 * k1), at(o[2], 3 * k1)], at(l, k1), f1, l1, None);
         }
@@ -92,62 +92,53 @@ pub(super) unsafe fn span<const PROJECTED: bool>(
         let m = (n - k).min(8);
         unsafe {
             let outs = [at(o[0], 3 * k), at(o[1], 3 * k), at(o[2], 3 * k)];
-            if m == 8 {
-                let (f, l0) = forces::<PROJECTED, true>(ends(k), params(k), None, _mm256_setzero_si256());
-                emit(outs, at(l, k), f, l0, None);
-            } else {
-                let (quarters, thirds, lanes) = masks(3 * m, m);
-                let (f, l0) = forces::<PROJECTED, false>(ends(k), params(k), Some(&quarters), lanes);
-                emit(outs, at(l, k), f, l0, Some((&thirds, &quarters, lanes)));
-            }
+            // (Not `bool::then` with a closure: see the module's docs.)
+            let tail = if m < 8 { Some(Tail::of(m)) } else { None };
+            let (f, l0) = forces::<PROJECTED>(ends(k), params(k), tail.as_ref());
+            emit(outs, at(l, k), f, l0, tail.as_ref());
         }
         k += m;
     }
 }
 
-/// The forces of a chunk of 8 lanes (`WHOLE`), or of its lanes that `mask` and `lanes` select: ends `q[0]` and
-/// `q[1]` (3-vectors, interleaved) and their velocities `v[0]`, `v[1]`; the parameters `p` (rest length,
-/// stiffness, damping). Returns them joined into 3-vectors ([`join`]), and the lengths.
+/// The forces of a chunk of 8 lanes, or of the live lanes of a short last chunk (`tail`): ends `q[0]` and `q[1]`
+/// (3-vectors, interleaved) and their velocities `v[0]`, `v[1]`; the parameters `p` (rest length, stiffness,
+/// damping). Returns them joined into 3-vectors ([`join`]), and the lengths.
 #[inline(always)]
-unsafe fn forces<const PROJECTED: bool, const WHOLE: bool>(
+unsafe fn forces<const PROJECTED: bool>(
     (q, v): ([*const f32; 2], [*const f32; 2]),
     p: [*const f32; 3],
-    mask: Option<&[__m128i; 6]>,
-    lanes: __m256i,
+    tail: Option<&Tail>,
 ) -> ([__m256; 3], __m256) {
     // SAFETY: the caller's bounds; masked-off elements are not read.
     unsafe {
         // (No `array::from_fn` or `map` here: see the module's docs.)
+        let mask = tail.map(|t| &t.quarters);
         let d = split(sub3(load3(q[1], mask), load3(q[0], mask)));
         let w = split(sub3(load3(v[1], mask), load3(v[0], mask)));
-        let (f, l) = if WHOLE {
-            force::<PROJECTED>(d, w, _mm256_loadu_ps(p[0]), _mm256_loadu_ps(p[1]), _mm256_loadu_ps(p[2]))
-        } else {
-            let (r, s, k) =
-                (_mm256_maskload_ps(p[0], lanes), _mm256_maskload_ps(p[1], lanes), _mm256_maskload_ps(p[2], lanes));
-            force::<PROJECTED>(d, w, r, s, k)
+        let (f, l) = match tail {
+            None => force::<PROJECTED>(d, w, _mm256_loadu_ps(p[0]), _mm256_loadu_ps(p[1]), _mm256_loadu_ps(p[2])),
+            Some(t) => {
+                let lanes = t.lanes;
+                let (r, s, k) =
+                    (_mm256_maskload_ps(p[0], lanes), _mm256_maskload_ps(p[1], lanes), _mm256_maskload_ps(p[2], lanes));
+                force::<PROJECTED>(d, w, r, s, k)
+            }
         };
         (join(f), l)
     }
 }
 
 /// A chunk's forces `f` (joined) stored to `o[0]`, added into `o[1]`, subtracted from `o[2]` where given, and its
-/// lengths `l` stored to `lens` where given; all 8 lanes, or those `mask` selects (its thirds, quarters and lanes,
-/// [`masks`]).
+/// lengths `l` stored to `lens` where given; all 8 lanes, or the live ones of a short last chunk (`tail`).
 #[inline(always)]
-unsafe fn emit(
-    o: [Option<*mut f32>; 3],
-    lens: Option<*mut f32>,
-    f: [__m256; 3],
-    l: __m256,
-    mask: Option<(&[__m256i; 3], &[__m128i; 6], __m256i)>,
-) {
+unsafe fn emit(o: [Option<*mut f32>; 3], lens: Option<*mut f32>, f: [__m256; 3], l: __m256, tail: Option<&Tail>) {
     // SAFETY: the caller's bounds; masked-off elements are not touched.
     unsafe {
-        let (thirds, quarters) = (mask.map(|m| m.0), mask.map(|m| m.1));
+        let (thirds, quarters) = (tail.map(|t| &t.thirds), tail.map(|t| &t.quarters));
         if let Some(lens) = lens {
-            match mask {
-                Some((_, _, lanes)) => _mm256_maskstore_ps(lens, lanes, l),
+            match tail {
+                Some(t) => _mm256_maskstore_ps(lens, t.lanes, l),
                 None => _mm256_storeu_ps(lens, l),
             }
         }
@@ -171,19 +162,33 @@ unsafe fn sub3(x: [__m256; 3], y: [__m256; 3]) -> [__m256; 3] {
     unsafe { [_mm256_sub_ps(x[0], y[0]), _mm256_sub_ps(x[1], y[1]), _mm256_sub_ps(x[2], y[2])] }
 }
 
-/// The masks of a chunk whose first `e` elements (of 24) and first `m` lanes (of 8) are live: of the six 128-bit
-/// quarters [`load3`] reads, of the three 256-bit thirds [`store3`] writes, and of the lanes.
-#[inline(always)]
-unsafe fn masks(e: usize, m: usize) -> ([__m128i; 6], [__m256i; 3], __m256i) {
-    // SAFETY: AVX2 (the caller's target features).
-    unsafe {
-        let idx = _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7);
-        let from = |at: usize| _mm256_cmpgt_epi32(_mm256_set1_epi32(e as i32 - at as i32), idx);
-        let mut quarters = [_mm_setzero_si128(); 6];
-        for (r, q) in quarters.iter_mut().enumerate() {
-            *q = _mm256_castsi256_si128(from(4 * r));
+/// The masks of a short last chunk of `m < 8` lanes, whose first `3m` elements (of 24) are live: of the six
+/// 128-bit quarters [`load3`] reads, of the three 256-bit thirds [`store3`] writes, and of the lanes.
+struct Tail {
+    quarters: [__m128i; 6],
+    thirds: [__m256i; 3],
+    lanes: __m256i,
+}
+
+impl Tail {
+    /// # Safety
+    /// The CPU has AVX2.
+    #[inline(always)]
+    unsafe fn of(m: usize) -> Tail {
+        // SAFETY: AVX2 (the caller's contract).
+        unsafe {
+            let idx = _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7);
+            let from = |at: usize| _mm256_cmpgt_epi32(_mm256_set1_epi32(3 * m as i32 - at as i32), idx);
+            let mut quarters = [_mm_setzero_si128(); 6];
+            for (r, q) in quarters.iter_mut().enumerate() {
+                *q = _mm256_castsi256_si128(from(4 * r));
+            }
+            Tail {
+                quarters,
+                thirds: [from(0), from(8), from(16)],
+                lanes: _mm256_cmpgt_epi32(_mm256_set1_epi32(m as i32), idx),
+            }
         }
-        (quarters, [from(0), from(8), from(16)], _mm256_cmpgt_epi32(_mm256_set1_epi32(m as i32), idx))
     }
 }
 
