@@ -1,11 +1,11 @@
 """The web page in headless Chromium (Playwright), as CI runs it after `scripts/web`.
 
-For each of the three scenes (fracture, ball_drop, cloth_wind) the page must run 60 simulated frames on WebGPU,
+For each of the three scenes (fracture, ball_drop, cloth_wind) the page must run 40 simulated frames on WebGPU,
 show the body (the native frame checks' pixel statistics, computed on the canvas's pixels) and report its frame
 rate and adapter. On the fracture scene a scripted right click on the ball must puncture it (fracture events)
-and the ball must lose gas through the hole (its `nRT` falls). Its volume is reported, not checked: half a second
-after the click the ball is bouncing off the obstacles, and its volume swings by ±2% with the impacts, more than
-the leak changes it in 30 frames (`tests/gpu.rs` checks the shrinking over a longer run). On the ball drop, the positions after 600 steps read back from the page must match
+and the ball must lose gas through the hole (its `nRT` falls). Its volume is reported, not checked: a third of a
+second after the click the ball is bouncing off the obstacles, and its volume swings by ±2% with the impacts, more than
+the leak changes it in 20 frames (`tests/gpu.rs` checks the shrinking over a longer run). On the ball drop, the positions after 600 steps read back from the page must match
 the native GPU backend's (`examples/scene_positions.rs`, lavapipe) within the parity tolerance of
 `tests/gpu.rs`: RMS difference below 1e-4 of the scene's size.
 
@@ -41,7 +41,11 @@ from playwright.sync_api import sync_playwright
 ROOT = Path(__file__).resolve().parent.parent
 WEB = ROOT / "web"
 SCENES = ["fracture", "ball_drop", "cloth_wind"]
-FRAMES = 60
+# Frames each scene runs, and the fracture scene's frame of the right click (a third of a second in: the ball has
+# met the first obstacle and is in view). 40 rather than 60: on SwiftShader the fracture page runs at ~3.4 s a
+# frame, and the checks read the same with 20 frames fewer (CI's web stage 1.7 minutes shorter).
+FRAMES = 40
+CLICK = 20
 # The smallest share of the canvas the body must cover (the native checks use the same statistic).
 MIN_BODY = {"fracture": 0.002, "ball_drop": 0.002, "cloth_wind": 0.002}
 PARITY_STEPS = 600
@@ -144,8 +148,8 @@ def main():
         for scene in SCENES:
             open_scene(page, base, scene)
             if scene == "fracture":
-                # Half a second in (the ball is inflated and in the air), a right click on it.
-                wait_for(page, frames_done(page, 30), 600, f"{scene}: 30 frames")
+                # A third of a second in (the ball is inflated and in view), a right click on it.
+                wait_for(page, frames_done(page, CLICK), 600, f"{scene}: {CLICK} frames")
                 page.evaluate("() => { window.fissure.paused = true; }")
                 wait_for(page, "() => !window.fissure.inFrame", 60, f"{scene}: pausing")
                 before = stats(page)
@@ -162,7 +166,7 @@ def main():
                 after = stats(page)
                 if not after["gas"] < at_puncture["gas"]:
                     fail(f"{scene}: gas nRT {at_puncture['gas']:.4f} J at the puncture, "
-                         f"{after['gas']:.4f} J {FRAMES - 30} frames later: the ball did not leak")
+                         f"{after['gas']:.4f} J {FRAMES - CLICK} frames later: the ball did not leak")
                 results[scene] = {"events_before": before["events"], "puncture_events": punctured,
                                   "gas_at_puncture": at_puncture["gas"], "gas_after": after["gas"],
                                   "volume_at_puncture": at_puncture["volume"], "volume_after": after["volume"]}
