@@ -56,6 +56,12 @@ pub trait Real:
     fn is_finite(self) -> bool;
     /// Largest integer not above `self`.
     fn floor(self) -> Self;
+    /// `self` where `keep`, else `+0`, formed by masking the bits: the same value as `if keep { self } else { 0 }`
+    /// without a select, which LLVM's AVX2 code for the grid wind pass stored as masked stores (`vmaskmovps`,
+    /// microcoded on AMD's cores).
+    fn kept(self, keep: bool) -> Self;
+    /// `x` if `c`, else `y`, formed by masking the bits (see [`Real::kept`]).
+    fn pick(c: bool, x: Self, y: Self) -> Self;
     /// Unit in the last place of a positive finite `self`: the gap to the next larger number.
     fn ulp(self) -> Self;
     /// Positive infinity.
@@ -115,7 +121,7 @@ pub trait Vector3<R>:
 }
 
 macro_rules! impl_real {
-    ($t:ty, $v:ty) => {
+    ($t:ty, $v:ty, $bits:ty) => {
         impl Real for $t {
             type V = $v;
             const ZERO: Self = 0.0;
@@ -148,6 +154,15 @@ macro_rules! impl_real {
             #[inline(always)]
             fn is_finite(self) -> bool {
                 <$t>::is_finite(self)
+            }
+            #[inline(always)]
+            fn kept(self, keep: bool) -> Self {
+                <$t>::from_bits(self.to_bits() & (0 as $bits).wrapping_sub(keep as $bits))
+            }
+            #[inline(always)]
+            fn pick(c: bool, x: Self, y: Self) -> Self {
+                let m = (0 as $bits).wrapping_sub(c as $bits);
+                <$t>::from_bits((x.to_bits() & m) | (y.to_bits() & !m))
             }
             #[inline(always)]
             fn floor(self) -> Self {
@@ -233,8 +248,8 @@ macro_rules! impl_real {
     };
 }
 
-impl_real!(f32, Vec3);
-impl_real!(f64, DVec3);
+impl_real!(f32, Vec3, u32);
+impl_real!(f64, DVec3, u64);
 
 /// `x` as `f32` where `R` is `f32` (the caller checks; otherwise it panics).
 #[cfg(target_arch = "x86_64")]
