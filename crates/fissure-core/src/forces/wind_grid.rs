@@ -331,8 +331,9 @@ fn store<R: Real>(acc: &Lanes<R>, out: &mut [R::V]) {
 /// those past `nq` are never used.
 ///
 /// The choices are made on the bits ([`Real::kept`], [`Real::pick`]), not by selects: from `if` selects LLVM's
-/// AVX2 code wrote the shares as pairs of masked stores (`vmaskmovps`, microcoded on AMD's cores), and on the Zen 3
-/// development VM the 128² cloth's wind pass took 228–328 µs a step against 117–133 µs now (the same bits).
+/// AVX2 code wrote the shares as pairs of masked stores (`vmaskmovps`, microcoded on AMD's cores): on the Zen 3
+/// development VM the wind added 228–328 µs to the 128² cloth's step, against 117–133 µs now (the same bits;
+/// `benches/RESULTS.md`, issue 15's (38)).
 #[inline(always)]
 fn quad_row<R: Real>(lo: &Row<R>, hi: &Row<R>, quads: &[u8], even: bool, nq: usize, c: &Coef<R>, s: &mut Shares<R>) {
     let (mut ok_a, mut ok_b) = ([false; QUADS], [false; QUADS]);
