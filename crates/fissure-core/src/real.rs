@@ -5,7 +5,7 @@
 //! [`glam::DVec3`] produces the reference solutions the accuracy tests and benchmarks compare against.
 //! Meshes and builder parameters are always `f64`; [`crate::ModelBuilder::finalize`] rounds them once.
 
-use glam::{DVec3, Vec3};
+use glam::{DVec3, Vec3, Vec3A};
 use std::fmt::{Debug, Display};
 use std::iter::Sum;
 use std::ops::{Add, AddAssign, Div, DivAssign, Mul, MulAssign, Neg, Sub, SubAssign};
@@ -34,6 +34,10 @@ pub trait Real:
 {
     /// The 3-vector of this precision.
     type V: Vector3<Self>;
+    /// [`Real::V`] as the gathers read it best: `f32`'s padded to 16 bytes ([`glam::Vec3A`]: one load and one
+    /// packed add an entry where a 12-byte vector takes two of each), `f64`'s as it is. Component by component the
+    /// same additions: the same bits.
+    type VA: Copy + Debug + Default + Send + Sync + Add<Output = Self::VA> + AddAssign + From<Self::V> + Into<Self::V>;
     /// 0.
     const ZERO: Self;
     /// 1.
@@ -121,9 +125,10 @@ pub trait Vector3<R>:
 }
 
 macro_rules! impl_real {
-    ($t:ty, $v:ty, $bits:ty) => {
+    ($t:ty, $v:ty, $va:ty, $bits:ty) => {
         impl Real for $t {
             type V = $v;
+            type VA = $va;
             const ZERO: Self = 0.0;
             const ONE: Self = 1.0;
             const EPSILON: Self = <$t>::EPSILON;
@@ -248,8 +253,8 @@ macro_rules! impl_real {
     };
 }
 
-impl_real!(f32, Vec3, u32);
-impl_real!(f64, DVec3, u64);
+impl_real!(f32, Vec3, Vec3A, u32);
+impl_real!(f64, DVec3, DVec3, u64);
 
 /// `x` as `f32` where `R` is `f32` (the caller checks; otherwise it panics).
 #[cfg(target_arch = "x86_64")]

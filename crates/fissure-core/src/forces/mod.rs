@@ -34,8 +34,9 @@ pub(crate) struct ForceScratch<R: Real> {
     pub runs: bool,
     /// The runs each block walks (run kernel).
     pub run_blocks: runs::RunBlocks,
-    /// `(x1 - x0) × (x2 - x0)` of each triangle \[m^2\].
-    pub tri_cross: Vec<R::V>,
+    /// `(x1 - x0) × (x2 - x0)` of each triangle \[m^2\], padded in `f32` ([`Real::VA`]) for the gathers that sum
+    /// them.
+    pub tri_cross: Vec<R::VA>,
     /// Force on each corner of each triangle (pressure + wind share) \[N\], written only with wind: without it a
     /// particle's triangle forces are its pressure share, which [`pressure_share`] forms from the cross vectors
     /// where they are summed (one pass over the triangles fewer).
@@ -99,7 +100,7 @@ impl<R: Real> ForceScratch<R> {
         let surface = m.has_pressure() || m.has_wind();
         let nt = if surface { m.tri_count() } else { 0 };
         // Kept only for the gas (without it the wind pass forms each cross in its lanes and keeps none).
-        self.tri_cross.resize(if m.has_pressure() { nt } else { 0 }, R::V::ZERO);
+        self.tri_cross.resize(if m.has_pressure() { nt } else { 0 }, R::VA::default());
         self.grid_plan = wind_grid::GridPlan::of_model(m);
         let planned = self.grid_plan.as_ref();
         self.tri_f.resize(if m.has_wind() && planned.is_none() { nt } else { 0 }, R::V::ZERO);
@@ -163,7 +164,7 @@ impl<R: Real> ForceScratch<R> {
         let partial_rows = m.tri_count().div_ceil(par::CHUNK).max(1);
         let vp = &mut self.vol_partials[..partial_rows * nb];
         let cross_chunk =
-            |start: usize, cross: &mut [R::V], part: &mut [R]| cross_chunk(m, q, pressure, start, cross, part);
+            |start: usize, cross: &mut [R::VA], part: &mut [R]| cross_chunk(m, q, pressure, start, cross, part);
         // Without gas the crosses are the wind pass's alone: it forms them itself (below), one pass over the
         // triangles instead of two.
         let fused_wind = !pressure && m.has_wind();
@@ -247,7 +248,7 @@ pub(crate) fn cross_chunk<R: Real>(
     q: &[R::V],
     pressure: bool,
     start: usize,
-    cross: &mut [R::V],
+    cross: &mut [R::VA],
     part: &mut [R],
 ) {
     part.iter_mut().for_each(|p| *p = R::ZERO);
@@ -256,7 +257,8 @@ pub(crate) fn cross_chunk<R: Real>(
         let t = start + k;
         let [a, b, d] = m.tri_indices[t];
         let (x0, x1, x2) = (q[a as usize], q[b as usize], q[d as usize]);
-        *c = (x1 - x0).cross(x2 - x0);
+        let cr = (x1 - x0).cross(x2 - x0);
+        *c = cr.into();
         if pressure {
             let body = m.tri_body[t] as usize;
             if m.body_gas_amount[body] > R::ZERO {
@@ -266,7 +268,7 @@ pub(crate) fn cross_chunk<R: Real>(
                     }
                     (cur, acc, anchor) = (body, part[body], q[m.body_anchor[body] as usize]);
                 }
-                acc += (x0 - anchor).dot(*c);
+                acc += (x0 - anchor).dot(cr);
             }
         }
     }
@@ -295,11 +297,14 @@ pub(crate) fn add_corners<R: Real>(f: R::V, m: &Model<R>, s: &ForceScratch<R>, i
 /// body's `P/6` (a triangle's body is its particles': a model invariant) instead of one per triangle with a look-up
 /// of the triangle's body. On the 10,242-vertex ball with gas (a probe of the harness's `terms` model, two
 /// threads, 2026-11-24) the gather went 84 → 69 µs a step, against 44 µs without gas. The per-corner form
-/// `cross · P/6` ([`pressure::corner_force`]) differs from it by rounding only.
+/// `cross · P/6` ([`pressure::corner_force`]) differs from it by rounding only. The crosses are read as
+/// [`Real::VA`] (one 16-byte load and one packed add an entry in `f32`): on the Zen 3 development VM the gas added
+/// 1.16–1.38× the spring pass to the ball's step with 12-byte crosses, 1.06–1.21× with padded ones (harness
+/// `terms`, six alternated pairs, 2026-11-28), the same bits.
 #[inline(always)]
 pub(crate) fn pressure_share<R: Real>(m: &Model<R>, s: &ForceScratch<R>, i: usize) -> R::V {
-    let c = m.particle_tris.row(i).iter().fold(R::V::ZERO, |c, &t| c + s.tri_cross[t as usize]);
-    c * s.body_p6[m.particle_body[i] as usize]
+    let c = m.particle_tris.row(i).iter().fold(R::VA::default(), |c, &t| c + s.tri_cross[t as usize]);
+    c.into() * s.body_p6[m.particle_body[i] as usize]
 }
 
 /// The gas's push on particle `i` through the caps over its body's openings \[N\] (zero off their loops; only

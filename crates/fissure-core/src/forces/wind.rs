@@ -263,7 +263,7 @@ pub(crate) enum Tris<'a, R: Real> {
     /// gas's pass), or without it formed here from the positions the kernel loads anyway (a model without gas: no
     /// pass of its own for them; 128² cloth in wind, harness `terms`, 2026-11-24: the surface stage 149–150 →
     /// 140–142 µs a step).
-    Range { start: usize, cross: Option<&'a [R::V]> },
+    Range { start: usize, cross: Option<&'a [R::VA]> },
     /// The listed triangles (the loose ones of a grid model, `forces::wind_grid`): their crosses formed here and
     /// not kept.
     List(&'a [u32]),
@@ -419,7 +419,7 @@ fn wind_chunk_impl<R: Real>(
             }
             // The surface pass's formula (`forces::cross_chunk`): the same bits.
             let cr = match &tris {
-                Tris::Range { cross: Some(cross), .. } => cross[k0 + k],
+                Tris::Range { cross: Some(cross), .. } => cross[k0 + k].into(),
                 Tris::Range { cross: None, .. } | Tris::List(_) => (qb - qa).cross(qc - qa),
             }
             .to_array();

@@ -74,13 +74,13 @@ impl<R: Real> CpuSolver<R> {
             par::chunks(&mut im.g, |start, gs| {
                 for k in 0..gs.len() {
                     let i = start + k;
-                    let mut acc = R::V::ZERO;
+                    let mut acc = R::VA::default();
                     for &tt in m.particle_tris.row(i) {
                         if m.body_gas_amount[m.tri_body[tt as usize] as usize] > R::ZERO {
                             acc += tri_cross[tt as usize];
                         }
                     }
-                    gs[k] = acc * sixth;
+                    gs[k] = acc.into() * sixth;
                 }
             });
             for &i in &self.f.caps.touched {
