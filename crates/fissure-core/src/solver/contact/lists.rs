@@ -314,10 +314,13 @@ impl<R: Real> ContactScratch<R> {
         });
         if hot.is_some() {
             // Old pairs of the searched elements out, their new pairs in, in index order: (t, v) and (e, f).
-            sort_by_u64(&mut vt, |[v, t]| (t as u64) << 32 | v as u64, |k| [k as u32, (k >> 32) as u32]);
-            merge_sorted(&mut self.vt, vt, |&[v, t]| !tmask[t as usize] && !is_hot[v as usize], |&[v, t]| (t, v));
-            sort_by_u64(&mut ee, |[e, f]| (e as u64) << 32 | f as u64, |k| [(k >> 32) as u32, k as u32]);
-            merge_sorted(&mut self.ee, ee, |&[e, f]| !emask[e as usize] && !emask[f as usize], |&p| p);
+            // Each list's order as one integer: the new pairs sort ~2× faster by it than as arrays or tuples.
+            let vt_key = |&[v, t]: &[u32; 2]| (t as u64) << 32 | v as u64;
+            let ee_key = |&[e, f]: &[u32; 2]| (e as u64) << 32 | f as u64;
+            vt.sort_unstable_by_key(vt_key);
+            merge_sorted(&mut self.vt, vt, |&[v, t]| !tmask[t as usize] && !is_hot[v as usize], vt_key);
+            ee.sort_unstable_by_key(ee_key);
+            merge_sorted(&mut self.ee, ee, |&[e, f]| !emask[e as usize] && !emask[f as usize], ee_key);
         } else {
             self.vt = vt;
             self.ee = ee;
@@ -335,15 +338,6 @@ fn search(grids: &[HashGrid; 2], from_big: bool, lo: DVec3, hi: DVec3, mut f: im
     if !from_big {
         big.query(lo, hi, f);
     }
-}
-
-/// Sorts `v` by `key`, a bijection onto `u64` (`back` its inverse): as one integer each, the new pairs of a
-/// refresh sort ~4× faster than as arrays compared element by element.
-fn sort_by_u64(v: &mut Vec<[u32; 2]>, key: impl Fn([u32; 2]) -> u64, back: impl Fn(u64) -> [u32; 2]) {
-    let mut k: Vec<u64> = v.iter().map(|&p| key(p)).collect();
-    k.sort_unstable();
-    v.clear();
-    v.extend(k.into_iter().map(back));
 }
 
 /// Merges `new` into the entries of `list` that `keep` keeps, both sorted by `key` (one pass instead of a
