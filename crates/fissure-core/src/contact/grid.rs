@@ -1,71 +1,147 @@
-//! A hashed uniform grid of points, built by a counting sort (the layout a GPU builds with u32 atomics): each
-//! point goes to the bucket of its cell, buckets hold their points in index order with their cell's key, and a
-//! box query visits each of its cells' buckets and keeps the points of that very cell: every point in the box's
-//! cells once, without sorting or deduplicating buckets.
+//! A uniform grid of points, built by a counting sort (the layout a GPU builds with u32 atomics). Two layouts, the
+//! same queries:
+//! - **dense**, when the points' cells fill a box of at most [`DENSE`] cells per point: every cell of that box has
+//!   its slice of the points (in index order), laid out row by row with `z` the fastest axis, so a box query
+//!   reads one contiguous run of points per `(x, y)` row of its cells, with no hashing and no test per point;
+//! - **hashed** otherwise (points scattered over a large box, such as bodies far apart): each point goes to the
+//!   bucket of its cell, buckets hold their points in index order with their cell's key, and a query visits each
+//!   of its cells' buckets and keeps the points of that very cell.
+//!
+//! Either way a query visits every point in the box's cells once, in cell order (`x`, then `y`, then `z`) and in
+//! index order within a cell, without sorting or deduplicating. Why the dense layout: on the folding 128² cloth
+//! (`cargo bench --bench contact`) the contact pass's searches were bound by the hashed grid's cost per cell (a
+//! hash and two loads from a table larger than the cache, then a key test per point), so they could only use
+//! large cells, and an edge's query then read ~8× the volume that can hold a partner. Rows of small cells read
+//! in one run each cut both (see `benches/RESULTS.md`, issue 16).
 
 use glam::DVec3;
+
+/// The dense layout is taken when the points' box of cells holds at most this many cells per point (and at least
+/// 64 in all): its table of cell starts is then at most this many `u32`s a point.
+pub const DENSE: usize = 32;
 
 /// See the module docs.
 #[derive(Clone, Debug, Default)]
 pub struct HashGrid {
     inv_cell: f64,
     mask: usize,
-    /// `start[b]..start[b + 1]`: bucket `b`'s slice of `items`.
+    /// The dense layout's box of cells (its lowest cell and its cells per axis), or `None`: hashed.
+    dense: Option<([i64; 3], [usize; 3])>,
+    /// Dense: `start[c]..start[c + 1]` is cell `c`'s slice of `items`. Hashed: bucket `b`'s.
     start: Vec<u32>,
     items: Vec<u32>,
-    /// The packed cell key of each entry of `items`.
+    /// The packed cell key of each entry of `items` (hashed only).
     cells: Vec<u64>,
-    /// Build scratch: the kept points' indices and packed cells, in index order.
+    /// Build scratch: the kept points' indices and cells, in index order.
     kept: Vec<u32>,
+    pts: Vec<DVec3>,
+    raw: Vec<[i64; 3]>,
     packed: Vec<u64>,
 }
 
 impl HashGrid {
     /// Rebuilds the grid with cells of side `cell` over the points `point(k)` for `k < n` (`None`: left out).
-    /// The buckets are sized for the points kept, not for `n`: the contact pass keeps only the elements near
+    /// The table is sized for the points kept, not for `n`: the contact pass keeps only the elements near
     /// another body, often a tenth of them, and a table sized for all cost it more to clear and sum than the
-    /// points cost to sort. (The bucket count changes no query's output: a query keeps the points of its very
-    /// cells, in index order.)
+    /// points cost to sort. (The layout and the bucket count change no query's output: a query keeps the points
+    /// of its very cells, in index order.)
     pub fn build(&mut self, cell: f64, n: usize, point: impl Fn(usize) -> Option<DVec3>) {
-        self.inv_cell = 1.0 / cell;
-        let (mut kept, mut packed) = (std::mem::take(&mut self.kept), std::mem::take(&mut self.packed));
+        self.build_fine(cell, cell, n, point);
+    }
+
+    /// [`HashGrid::build`] with cells of side `fine` where the points then fill a box of cells densely enough
+    /// for the dense layout, else of side `coarse` (small cells pay with rows read in one run each, and cost
+    /// more than they save as hashed cells: see the module docs).
+    pub fn build_fine(&mut self, fine: f64, coarse: f64, n: usize, point: impl Fn(usize) -> Option<DVec3>) {
+        let (mut kept, mut raw, mut pts) =
+            (std::mem::take(&mut self.kept), std::mem::take(&mut self.raw), std::mem::take(&mut self.pts));
         kept.clear();
-        packed.clear();
-        // (index, packed cell) of each point kept, in index order; the bucket comes once their count is known.
+        raw.clear();
+        pts.clear();
+        // The points kept, in index order, and their box.
+        let (mut plo, mut phi) = (DVec3::INFINITY, DVec3::NEG_INFINITY);
         for k in 0..n {
             if let Some(p) = point(k) {
+                (plo, phi) = (plo.min(p), phi.max(p));
                 kept.push(k as u32);
-                packed.push(pack(self.cell(p)));
+                pts.push(p);
             }
         }
+        let fits = |cell: f64| {
+            let cells = ((phi - plo) / cell).to_array().iter().fold(1.0, |n, &d| n * (d + 2.0));
+            cells <= (DENSE * kept.len()).max(64) as f64
+        };
+        self.inv_cell = 1.0 / if fine != coarse && fits(fine) { fine } else { coarse };
+        // Each point's cell, and the box of their cells.
+        let (mut lo, mut hi) = ([i64::MAX; 3], [i64::MIN; 3]);
+        for &p in &pts {
+            let c = self.cell(p);
+            for a in 0..3 {
+                lo[a] = lo[a].min(c[a]);
+                hi[a] = hi[a].max(c[a]);
+            }
+            raw.push(c);
+        }
+        self.pts = pts;
         let count = kept.len();
-        let buckets = (2 * count).next_power_of_two().max(64);
-        self.mask = buckets - 1;
-        self.start.clear();
-        self.start.resize(buckets + 2, 0);
-        self.cells.clear();
-        self.cells.resize(count, 0);
+        let dims = [0, 1, 2].map(|a| (hi[a] as i128 - lo[a] as i128 + 1).max(0) as u128);
+        let total = dims[0] * dims[1] * dims[2];
         self.items.clear();
         self.items.resize(count, 0);
-        // Count into `start[b + 2]`, sum so that `start[b + 1]` is bucket b's first slot, then fill by
-        // advancing `start[b + 1]`: afterwards `start[b]..start[b + 1]` is bucket b (a stable counting sort in
-        // index order, with no second table).
-        let mask = self.mask;
-        for &c in &packed {
-            self.start[bucket_of(c, mask) + 2] += 1;
+        self.start.clear();
+        if count > 0 && total <= (DENSE * count).max(64) as u128 {
+            let dims = dims.map(|d| d as usize);
+            self.dense = Some((lo, dims));
+            self.cells.clear();
+            let index = |c: &[i64; 3]| {
+                (((c[0] - lo[0]) as usize * dims[1]) + (c[1] - lo[1]) as usize) * dims[2] + (c[2] - lo[2]) as usize
+            };
+            self.counting_sort(total as usize, &kept, &raw, index, |_| None);
+        } else {
+            self.dense = None;
+            let mut packed = std::mem::take(&mut self.packed);
+            packed.clear();
+            packed.extend(raw.iter().map(|&c| pack(c)));
+            let buckets = (2 * count).next_power_of_two().max(64);
+            self.mask = buckets - 1;
+            let mask = self.mask;
+            self.cells.clear();
+            self.cells.resize(count, 0);
+            self.counting_sort(buckets, &kept, &packed, |&c| bucket_of(c, mask), |&c| Some(c));
+            self.packed = packed;
         }
-        for b in 2..buckets + 2 {
-            self.start[b] += self.start[b - 1];
+        self.kept = kept;
+        self.raw = raw;
+    }
+
+    /// Sorts the kept points into `slots` slots (`slot_of` each point's cell), stably, into `items` (and where
+    /// `key_of` gives one, each entry's cell key into `cells`): afterwards `start[s]..start[s + 1]` is slot `s`.
+    /// Counts go into `start[s + 2]`, are summed so that `start[s + 1]` is slot s's first entry, and the fill
+    /// advances `start[s + 1]` (no second table).
+    fn counting_sort<K>(
+        &mut self,
+        slots: usize,
+        kept: &[u32],
+        key: &[K],
+        slot_of: impl Fn(&K) -> usize,
+        key_of: impl Fn(&K) -> Option<u64>,
+    ) {
+        self.start.resize(slots + 2, 0);
+        for c in key {
+            self.start[slot_of(c) + 2] += 1;
         }
-        for (&k, &c) in kept.iter().zip(&packed) {
-            let slot = &mut self.start[bucket_of(c, mask) + 1];
+        for s in 2..slots + 2 {
+            self.start[s] += self.start[s - 1];
+        }
+        for (&k, c) in kept.iter().zip(key) {
+            let slot = &mut self.start[slot_of(c) + 1];
             self.items[*slot as usize] = k;
-            self.cells[*slot as usize] = c;
+            if let Some(c) = key_of(c) {
+                self.cells[*slot as usize] = c;
+            }
             *slot += 1;
         }
         self.start.pop();
-        self.kept = kept;
-        self.packed = packed;
     }
 
     /// The cell of `p`: `floor(p / cell)` per axis. The floor is taken on the integer (truncate, then one down
@@ -79,15 +155,48 @@ impl HashGrid {
         })
     }
 
+    /// Whether the grid took the dense layout (see the module docs).
+    pub fn is_dense(&self) -> bool {
+        self.dense.is_some()
+    }
+
     /// Calls `f` on every point whose cell meets the box `[lo, hi]`, each once, in cell order (all points when
-    /// the box spans more cells than the grid has buckets). Inlined into each search, so that the search's visit
-    /// is compiled into the loop over the bucket's points rather than called through a pointer per point.
+    /// the box is not finite, or, hashed, spans more cells than the grid has buckets). Inlined into each search,
+    /// so that the search's visit is compiled into the loop over the cells' points rather than called through a
+    /// pointer per point.
     #[inline(always)]
     pub fn query(&self, lo: DVec3, hi: DVec3, mut f: impl FnMut(u32)) {
+        // (An empty grid, such as the big body's where there is none, is not walked cell by cell.)
+        if self.items.is_empty() {
+            return;
+        }
+        if !(lo.is_finite() && hi.is_finite()) {
+            self.items.iter().for_each(|&i| f(i));
+            return;
+        }
         let (a, b) = (self.cell(lo), self.cell(hi));
+        if let Some((base, dims)) = self.dense {
+            // The query's cells clipped to the grid's box, as offsets into it; then one run per `(x, y)` row.
+            let mut r = [(0usize, 0usize); 3];
+            for k in 0..3 {
+                let (from, to) = (a[k].max(base[k]), b[k].min(base[k] + dims[k] as i64 - 1));
+                if from > to {
+                    return;
+                }
+                r[k] = ((from - base[k]) as usize, (to - base[k]) as usize);
+            }
+            for x in r[0].0..=r[0].1 {
+                for y in r[1].0..=r[1].1 {
+                    let row = (x * dims[1] + y) * dims[2];
+                    let run = self.start[row + r[2].0] as usize..self.start[row + r[2].1 + 1] as usize;
+                    self.items[run].iter().for_each(|&i| f(i));
+                }
+            }
+            return;
+        }
         let span = |k: usize| (b[k] - a[k] + 1).max(0) as u128;
         let cells = span(0) * span(1) * span(2);
-        if cells > self.mask as u128 || !(lo.is_finite() && hi.is_finite()) {
+        if cells > self.mask as u128 {
             self.items.iter().for_each(|&i| f(i));
             return;
         }
@@ -154,8 +263,8 @@ mod tests {
     }
 
     /// A query visits exactly the kept points whose cells meet its box, each once, in cell order and in index
-    /// order within a cell, whatever the bucket count (a grid keeping few of many points has few buckets, so
-    /// many cells share one).
+    /// order within a cell, in either layout and whatever the bucket count (a grid keeping few of many points has
+    /// few buckets, so many cells share one), including boxes that reach past the points' cells.
     #[test]
     fn a_query_visits_the_kept_points_of_its_cells_once() {
         let mut seed = 7u64;
@@ -169,9 +278,16 @@ mod tests {
         for keep_every in [1, 10, 97] {
             let mut g = HashGrid::default();
             g.build(cell, pts.len(), |k| (k % keep_every == 0).then_some(pts[k]));
-            assert_eq!(g.mask + 1, (2 * pts.len().div_ceil(keep_every)).next_power_of_two().max(64));
-            for q in 0..50 {
-                let lo = pts[q * 7] - 0.2;
+            // ~16^3 cells: dense for all the points, hashed for a 97th (and both ways tested).
+            if keep_every != 10 {
+                assert_eq!(g.is_dense(), keep_every == 1, "keep 1 in {keep_every}");
+            }
+            if !g.is_dense() {
+                assert_eq!(g.mask + 1, (2 * pts.len().div_ceil(keep_every)).next_power_of_two().max(64));
+            }
+            for q in 0..60 {
+                // The last ten boxes reach out of the points' cube on some side (or miss it).
+                let lo = if q < 50 { pts[q * 7] - 0.2 } else { pts[q * 7] * 1.5 - 0.2 };
                 let hi = lo + DVec3::new(0.3, 0.15, 0.45);
                 let mut got = Vec::new();
                 g.query(lo, hi, |i| got.push(i));

@@ -9,6 +9,14 @@ use super::*;
 const PAR_BUILD: usize = 8 * TASK;
 /// A hot vertex's search in a refresh costs a few microseconds: parallel from this many.
 const PAR_HOT: usize = TASK;
+/// The edge midpoints' cells, as a fraction of `radius + l_max`, where the grid takes its dense layout with them
+/// (else `radius + l_max`, hashed: [`HashGrid::build_fine`]). Rows of small cells read in one run each read
+/// less of the space around an edge that cannot hold a partner. `cargo bench --bench contact`, one thread, the Zen 3 development VM, 2026-11-28, alternated with the
+/// build before (hashed cells of 1×: contact 13.2–16.5 ms a substep): 0.5× **10.3–12.8 ms**, 0.4× 10.3, 0.35×
+/// 11.3–11.7, 1× (dense) 12.2; with vertex and centroid cells at 0.5× or 0.7× as well, 11.5–12.2. (Before the
+/// dense layout, 0.5× and 0.7× were slower than 1×: a hashed cell costs a hash and two loads from a large
+/// table.)
+const EDGE_CELL: f64 = 0.5;
 
 impl<R: Real> ContactScratch<R> {
     /// Finds every allowed pair closer than `radius` at `x0` (the Verlet list).
@@ -135,8 +143,9 @@ impl<R: Real> ContactScratch<R> {
         };
         let in_big = |b: u32| big == Some(b as usize);
         // The grids, each over its own elements, the big body's apart (in parallel: a build is a counting sort
-        // in index order, the same whichever thread runs it). Edge midpoints go in cells of `radius + l_max`: an
-        // edge's query box (its box grown by the reach below) spans at most 3 cells a side.
+        // in index order, the same whichever thread runs it). Edge midpoints go in cells of `EDGE_CELL ×
+        // (radius + l_max)` where they are dense enough, else `radius + l_max`: an edge's query box (its box
+        // grown by the reach below) spans at most 5 (or 3) cells a side.
         let (eboxes, centroids) = (&self.eboxes, &self.centroids);
         // Each kind's two grids (index 1: the big body's), each element in the one of its body.
         let vertices = |gs: &mut [HashGrid; 2]| {
@@ -149,7 +158,7 @@ impl<R: Real> ContactScratch<R> {
         };
         let midpoints = |gs: &mut [HashGrid; 2]| {
             for (g, of_big) in gs.iter_mut().zip([false, true]) {
-                g.build(radius + l_max, edges.len(), |k| {
+                g.build_fine(EDGE_CELL * (radius + l_max), radius + l_max, edges.len(), |k| {
                     let [lo, hi] = eboxes[k];
                     let b = m.particle_body[edges[k][0] as usize];
                     (in_big(b) == of_big && active[b as usize] && worth(b, lo - pad, hi + pad)).then(|| 0.5 * (lo + hi))
