@@ -11,11 +11,11 @@ const PAR_BUILD: usize = 8 * TASK;
 const PAR_HOT: usize = TASK;
 /// The edge midpoints' cells, as a fraction of `radius + l_max`, where the grid takes its dense layout with them
 /// (else `radius + l_max`, hashed: [`HashGrid::build_fine`]). Rows of small cells read in one run each read
-/// less of the space around an edge that cannot hold a partner. `cargo bench --bench contact`, one thread, the Zen 3 development VM, 2026-11-28, alternated with the
-/// build before (hashed cells of 1×: contact 13.2–16.5 ms a substep): 0.5× **10.3–12.8 ms**, 0.4× 10.3, 0.35×
-/// 11.3–11.7, 1× (dense) 12.2; with vertex and centroid cells at 0.5× or 0.7× as well, 11.5–12.2. (Before the
-/// dense layout, 0.5× and 0.7× were slower than 1×: a hashed cell costs a hash and two loads from a large
-/// table.)
+/// less of the space around an edge that cannot hold a partner. `cargo bench --bench contact`, one thread, the
+/// Zen 3 development VM, 2026-11-28, alternated with the build before (hashed cells of 1×: contact 12.9–16.5 ms
+/// a substep): 0.5× **10.3–12.8 ms**, 0.4× 10.3, 0.35× 11.3–11.7, 1× (dense) 12.2; with vertex and centroid
+/// cells at 0.5× or 0.7× as well, 11.5–12.2. (Before the dense layout, 0.5× and 0.7× were slower than 1×: a
+/// hashed cell costs a hash and two loads from a large table.)
 const EDGE_CELL: f64 = 0.5;
 
 impl<R: Real> ContactScratch<R> {
