@@ -36,7 +36,6 @@ pub struct HashGrid {
     kept: Vec<u32>,
     pts: Vec<DVec3>,
     raw: Vec<[i64; 3]>,
-    packed: Vec<u64>,
 }
 
 impl HashGrid {
@@ -99,16 +98,12 @@ impl HashGrid {
             self.counting_sort(total as usize, &kept, &raw, index, |_| None);
         } else {
             self.dense = None;
-            let mut packed = std::mem::take(&mut self.packed);
-            packed.clear();
-            packed.extend(raw.iter().map(|&c| pack(c)));
             let buckets = (2 * count).next_power_of_two().max(64);
             self.mask = buckets - 1;
             let mask = self.mask;
             self.cells.clear();
             self.cells.resize(count, 0);
-            self.counting_sort(buckets, &kept, &packed, |&c| bucket_of(c, mask), |&c| Some(c));
-            self.packed = packed;
+            self.counting_sort(buckets, &kept, &raw, |&c| bucket_of(pack(c), mask), |&c| Some(pack(c)));
         }
         self.kept = kept;
         self.raw = raw;
