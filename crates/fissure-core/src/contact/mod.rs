@@ -215,15 +215,15 @@ pub fn crossings<R: Real>(m: &Model<R>, q: &[R::V]) -> Vec<[u32; 2]> {
     if nt < 2 || !(l_max.is_finite() && l_max > 0.0) {
         return Vec::new();
     }
-    let mut grid = HashGrid::default();
+    let mut grid = HashGrid::<()>::default();
     let centroid = |t: usize| corners(t).iter().sum::<DVec3>() / 3.0;
-    grid.build(l_max, nt, |t| Some(centroid(t)));
+    grid.build(l_max, nt, |t| Some((centroid(t), ())));
     let mut out = Vec::new();
     for t in 0..nt {
         let c = corners(t);
         let (lo, hi) = (c[0].min(c[1]).min(c[2]), c[0].max(c[1]).max(c[2]));
         let tv = m.tri_indices[t];
-        grid.query(lo - l_max, hi + l_max, |u| {
+        grid.query(lo - l_max, hi + l_max, |u, _| {
             let u = u as usize;
             if u <= t {
                 return;

@@ -5,7 +5,7 @@
 mod lists;
 
 use super::*;
-use crate::contact::geometry::{closest_on_segments, closest_on_triangle, plane_apart, segments_apart};
+use crate::contact::geometry::{Box32, closest_on_segments, closest_on_triangle, plane_apart, segments_apart};
 use crate::contact::grid::HashGrid;
 use crate::contact::{Elements, GAMMA, RELAX, same_origin};
 use glam::DVec3;
@@ -153,11 +153,13 @@ pub(super) struct ContactScratch<R: Real> {
     hot: Vec<u32>,
     /// Vertices, edge midpoints and triangle centroids (refreshes only), each of the bodies but the largest,
     /// then of the largest (see `lists`).
-    grid: [HashGrid; 2],
-    egrid: [HashGrid; 2],
-    tgrid: [HashGrid; 2],
-    /// The searched triangles' centroids (refreshes only; `None`: not searched).
-    centroids: Vec<Option<DVec3>>,
+    /// Their payloads: a vertex's position, an edge's box, a triangle's box grown by the search radius, each as
+    /// a [`Box32`] (a search's first test).
+    grid: [HashGrid<Box32>; 2],
+    egrid: [HashGrid<Box32>; 2],
+    tgrid: [HashGrid<Box32>; 2],
+    /// The searched triangles' centroids and search boxes (refreshes only; `None`: not searched).
+    centroids: Vec<Option<(DVec3, Box32)>>,
     /// Each edge's box at `x0` when the candidates were found (one contiguous load per edge a query visits).
     eboxes: Vec<[DVec3; 2]>,
     pub stats: ContactStats,
