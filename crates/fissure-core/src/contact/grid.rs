@@ -40,7 +40,9 @@ pub struct HashGrid<P = ()> {
     kept: Vec<u32>,
     kept_payload: Vec<P>,
     pts: Vec<DVec3>,
-    raw: Vec<[i64; 3]>,
+    /// Each kept point's slot (dense: its cell's index in the box; hashed: its bucket), and (hashed) its cell's key.
+    slot: Vec<u32>,
+    keys: Vec<u64>,
 }
 
 impl<P> Default for HashGrid<P> {
@@ -56,7 +58,8 @@ impl<P> Default for HashGrid<P> {
             kept: Vec::new(),
             kept_payload: Vec::new(),
             pts: Vec::new(),
-            raw: Vec::new(),
+            slot: Vec::new(),
+            keys: Vec::new(),
         }
     }
 }
@@ -76,11 +79,11 @@ impl<P: Copy + Default> HashGrid<P> {
     /// for the dense layout, else of side `coarse` (small cells pay with rows read in one run each, and cost
     /// more than they save as hashed cells: see the module docs).
     pub fn build_fine(&mut self, fine: f64, coarse: f64, n: usize, point: impl Fn(usize) -> Option<(DVec3, P)>) {
-        let (mut kept, mut raw, mut pts) =
-            (std::mem::take(&mut self.kept), std::mem::take(&mut self.raw), std::mem::take(&mut self.pts));
+        let (mut kept, mut slot, mut pts) =
+            (std::mem::take(&mut self.kept), std::mem::take(&mut self.slot), std::mem::take(&mut self.pts));
         let mut kept_payload = std::mem::take(&mut self.kept_payload);
         kept.clear();
-        raw.clear();
+        slot.clear();
         pts.clear();
         kept_payload.clear();
         // The points kept, in index order, and their box.
@@ -98,17 +101,8 @@ impl<P: Copy + Default> HashGrid<P> {
             cells <= (DENSE * kept.len()).max(64) as f64
         };
         self.inv_cell = 1.0 / if fine != coarse && fits(fine) { fine } else { coarse };
-        // Each point's cell, and the box of their cells.
-        let (mut lo, mut hi) = ([i64::MAX; 3], [i64::MIN; 3]);
-        for &p in &pts {
-            let c = self.cell(p);
-            for a in 0..3 {
-                lo[a] = lo[a].min(c[a]);
-                hi[a] = hi[a].max(c[a]);
-            }
-            raw.push(c);
-        }
-        self.pts = pts;
+        // The box of the points' cells: the cells of the points' box's corners (a cell is monotonic in its point).
+        let (lo, hi) = (self.cell(plo), self.cell(phi));
         let count = kept.len();
         let dims = [0, 1, 2].map(|a| (hi[a] as i128 - lo[a] as i128 + 1).max(0) as u128);
         let total = dims[0] * dims[1] * dims[2];
@@ -124,7 +118,8 @@ impl<P: Copy + Default> HashGrid<P> {
             let index = |c: &[i64; 3]| {
                 (((c[0] - lo[0]) as usize * dims[1]) + (c[1] - lo[1]) as usize) * dims[2] + (c[2] - lo[2]) as usize
             };
-            self.counting_sort(total as usize, &kept, &kept_payload, &raw, index, |_| None);
+            slot.extend(pts.iter().map(|&p| index(&self.cell(p)) as u32));
+            self.counting_sort(total as usize, &kept, &kept_payload, &slot, false);
         } else {
             self.dense = None;
             let buckets = (2 * count).next_power_of_two().max(64);
@@ -132,43 +127,40 @@ impl<P: Copy + Default> HashGrid<P> {
             let mask = self.mask;
             self.cells.clear();
             self.cells.resize(count, 0);
-            let slot_of = |&c: &[i64; 3]| bucket_of(pack(c), mask);
-            self.counting_sort(buckets, &kept, &kept_payload, &raw, slot_of, |&c| Some(pack(c)));
+            let mut keys = std::mem::take(&mut self.keys);
+            keys.clear();
+            keys.extend(pts.iter().map(|&p| pack(self.cell(p))));
+            slot.extend(keys.iter().map(|&k| bucket_of(k, mask) as u32));
+            self.keys = keys;
+            self.counting_sort(buckets, &kept, &kept_payload, &slot, true);
         }
         self.kept = kept;
         self.kept_payload = kept_payload;
-        self.raw = raw;
+        self.slot = slot;
+        self.pts = pts;
     }
 
-    /// Sorts the kept points into `slots` slots (`slot_of` each point's cell), stably, into `items` and their
-    /// payloads into `payload` (and where `key_of` gives one, each entry's cell key into `cells`): afterwards
+    /// Sorts the kept points into `slots` slots (`slot` each point's), stably, into `items` and their payloads into
+    /// `payload` (and with `keyed`, each entry's cell key from `keys` into `cells`): afterwards
     /// `start[s]..start[s + 1]` is slot `s`.
     /// Counts go into `start[s + 2]`, are summed so that `start[s + 1]` is slot s's first entry, and the fill
     /// advances `start[s + 1]` (no second table).
-    fn counting_sort<K>(
-        &mut self,
-        slots: usize,
-        kept: &[u32],
-        kept_payload: &[P],
-        key: &[K],
-        slot_of: impl Fn(&K) -> usize,
-        key_of: impl Fn(&K) -> Option<u64>,
-    ) {
+    fn counting_sort(&mut self, slots: usize, kept: &[u32], kept_payload: &[P], slot: &[u32], keyed: bool) {
         self.start.resize(slots + 2, 0);
-        for c in key {
-            self.start[slot_of(c) + 2] += 1;
+        for &s in slot {
+            self.start[s as usize + 2] += 1;
         }
         for s in 2..slots + 2 {
             self.start[s] += self.start[s - 1];
         }
-        for ((&k, &pay), c) in kept.iter().zip(kept_payload).zip(key) {
-            let slot = &mut self.start[slot_of(c) + 1];
-            self.items[*slot as usize] = k;
-            self.payload[*slot as usize] = pay;
-            if let Some(c) = key_of(c) {
-                self.cells[*slot as usize] = c;
+        for (j, ((&k, &pay), &s)) in kept.iter().zip(kept_payload).zip(slot).enumerate() {
+            let at = &mut self.start[s as usize + 1];
+            self.items[*at as usize] = k;
+            self.payload[*at as usize] = pay;
+            if keyed {
+                self.cells[*at as usize] = self.keys[j];
             }
-            *slot += 1;
+            *at += 1;
         }
         self.start.pop();
     }
