@@ -152,17 +152,21 @@ pub fn triangles_cross(t: [DVec3; 3], u: [DVec3; 3]) -> bool {
 mod tests {
     use super::*;
 
+    /// Uniform numbers in `[-1, 1)` from a linear congruential generator seeded with `seed`.
+    fn uniform(mut seed: u64) -> impl FnMut() -> f64 {
+        move || {
+            seed = seed.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            (seed >> 11) as f64 / (1u64 << 53) as f64 * 2.0 - 1.0
+        }
+    }
+
     /// The lower bounds never call a pair apart that the exact closest points put within `r`, and the segments'
     /// bound does reject over a quarter of the pairs at least `2 r` apart (so the test can fail both ways): random
     /// segments and point–triangle pairs in a box, including parallel and in-plane ones, against radii around
     /// their distances.
     #[test]
     fn lower_bounds_never_reject_a_pair_within_reach() {
-        let mut seed = 11u64;
-        let mut rnd = || {
-            seed = seed.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
-            (seed >> 11) as f64 / (1u64 << 53) as f64 * 2.0 - 1.0
-        };
+        let mut rnd = uniform(11);
         let (mut rejected, mut far) = (0, 0);
         for k in 0..20_000 {
             let mut v = || DVec3::new(rnd(), rnd(), rnd());
@@ -199,11 +203,7 @@ mod tests {
     /// are seen apart.
     #[test]
     fn f32_boxes_contain_theirs_and_part_only_where_they_part() {
-        let mut seed = 5u64;
-        let mut rnd = || {
-            seed = seed.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
-            (seed >> 11) as f64 / (1u64 << 53) as f64 * 2.0 - 1.0
-        };
+        let mut rnd = uniform(5);
         let (mut parted, mut apart) = (0, 0);
         for k in 0..20_000 {
             let scale = [1e-40, 1e-3, 1.0, 0.3, 1e6, 1e30][k % 6];
@@ -232,10 +232,9 @@ mod tests {
     #[test]
     fn closest_points_match_brute_force_sampling() {
         let (a, b, c) = (DVec3::new(0.0, 0.0, 0.0), DVec3::new(1.0, 0.0, 0.0), DVec3::new(0.2, 1.0, 0.3));
-        let mut seed = 7u64;
-        let mut rnd = || {
-            seed = seed.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
-            (seed >> 11) as f64 / (1u64 << 53) as f64 * 3.0 - 1.5
+        let mut rnd = {
+            let mut u = uniform(7);
+            move || 1.5 * u()
         };
         for _ in 0..200 {
             let p = DVec3::new(rnd(), rnd(), rnd());
