@@ -11,8 +11,9 @@
 //! Each substep, after the integrator and the colliders (`solver/contact/`):
 //! 1. **Candidates** (broad phase): a uniform grid ([`grid::HashGrid`], counting sort, as the GPU builds it; dense
 //!    where the points fill their box of cells, hashed where they are scattered) of vertices for vertex–triangle
-//!    pairs and of edge midpoints for edge–edge pairs gives every pair closer than a search radius `R` at the
-//!    step's start, each element's partners in index order. The list is kept between steps (a Verlet list) while no
+//!    pairs and of edge midpoints for edge–edge pairs, each entry carrying its element's box in `f32` rounded
+//!    outward (the searches' first test, read in the grid's own order), gives every pair closer than a search
+//!    radius `R` at the step's start, each element's partners in index order. The list is kept between steps (a Verlet list) while no
 //!    missed pair can have come within reach, judged per pair of bodies from how far apart their boxes were and how
 //!    far their points drifted since: cost grows with the surface, not its square, and a resting scene rebuilds
 //!    rarely. A list built at a passing peak of speed (its radius follows the fastest particle) is built again once
