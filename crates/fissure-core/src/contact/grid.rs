@@ -36,7 +36,7 @@ pub struct HashGrid<P = ()> {
     payload: Vec<P>,
     /// The packed cell key of each entry of `items` (hashed only).
     cells: Vec<u64>,
-    /// Build scratch: the kept points' indices and cells, in index order.
+    /// Build scratch: the kept points' indices, payloads and points, in index order.
     kept: Vec<u32>,
     kept_payload: Vec<P>,
     pts: Vec<DVec3>,

@@ -13,12 +13,13 @@
 //!    where the points fill their box of cells, hashed where they are scattered) of vertices for vertex–triangle
 //!    pairs and of edge midpoints for edge–edge pairs, each entry carrying its element's box in `f32` rounded
 //!    outward (the searches' first test, read in the grid's own order), gives every pair closer than a search
-//!    radius `R` at the step's start, each element's partners in index order. The list is kept between steps (a Verlet list) while no
-//!    missed pair can have come within reach, judged per pair of bodies from how far apart their boxes were and how
-//!    far their points drifted since: cost grows with the surface, not its square, and a resting scene rebuilds
-//!    rarely. A list built at a passing peak of speed (its radius follows the fastest particle) is built again once
-//!    it is well past the radius the step wants. Since the pairs within reach are listed in index order whenever
-//!    the list was built, a kept list gives the same bits as one rebuilt at every step.
+//!    radius `R` at the step's start, each element's partners in index order. The list is kept between steps (a
+//!    Verlet list) while no missed pair can have come within reach, judged per pair of bodies from how far apart
+//!    their boxes were and how far their points drifted since: cost grows with the surface, not its square, and a
+//!    resting scene rebuilds rarely. A list built at a passing peak of speed (its radius follows the fastest
+//!    particle) is built again once it is well past the radius the step wants. Since the pairs within reach are
+//!    listed in index order whenever the list was built, a kept list gives the same bits as one rebuilt at every
+//!    step.
 //! 2. **Repulsion with friction**: for each pair within reach, an impulse along the normal between the closest
 //!    points makes the predicted gap at the end of the step at least `h` (a pair already inside `h` is eased out
 //!    by [`RELAX`] of its overlap per step instead, so resting contact does not jitter), applied to the four

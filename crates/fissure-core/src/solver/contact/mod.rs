@@ -160,7 +160,8 @@ pub(super) struct ContactScratch<R: Real> {
     tgrid: [HashGrid<Box32>; 2],
     /// The searched triangles' centroids and search boxes (refreshes only; `None`: not searched).
     centroids: Vec<Option<(DVec3, Box32)>>,
-    /// Each edge's box at `x0` when the candidates were found (one contiguous load per edge a query visits).
+    /// Each edge's box at `x0` when the candidates were found (the searcher's own box, and the source of the edge
+    /// grid's payloads).
     eboxes: Vec<[DVec3; 2]>,
     pub stats: ContactStats,
     /// Rebuild the candidate lists at every step (a check of the Verlet list: see
