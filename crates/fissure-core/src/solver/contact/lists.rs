@@ -22,6 +22,7 @@ impl<R: Real> ContactScratch<R> {
     /// Finds every allowed pair closer than `radius` at `x0` (the Verlet list).
     pub(super) fn build(&mut self, m: &Model<R>, radius: f64) {
         self.xb.clone_from(&self.x0);
+        self.drifts.iter_mut().for_each(|d| *d = 0.0);
         self.lists(m, radius, None);
         self.radius = radius;
         self.stats.builds += 1;
@@ -51,6 +52,7 @@ impl<R: Real> ContactScratch<R> {
         }
         for &i in &hot {
             self.xb[i as usize] = self.x0[i as usize];
+            self.drifts[i as usize] = 0.0;
         }
         self.lists(m, self.radius, Some(&hot));
         self.stats.refreshes += 1;
@@ -213,17 +215,19 @@ impl<R: Real> ContactScratch<R> {
         // Vertex `v` at `p` against triangle `t` (corners `tv` at `c`, normal `n`, search box `bx`), from either
         // side of a search: a pair if allowed and closer than `radius`.
         let normal = |c: [DVec3; 3]| (c[1] - c[0]).cross(c[2] - c[0]);
+        // (Returns the gap: see `Candidate`.)
         let vt_near = |v: u32, p: DVec3, t: u32, tv: [u32; 3], c: [DVec3; 3], n: DVec3, (lo, hi): (DVec3, DVec3)| {
             // The box first (one load; most points a query visits are outside it), then the plane.
             if p.cmplt(lo).any() || p.cmpgt(hi).any() || plane_apart(p, c[0], n, radius) {
-                return false;
+                return None;
             }
             if tv.iter().any(|&u| same_origin(m, u, v)) || !allowed(m.particle_body[v as usize], m.tri_body[t as usize])
             {
-                return false;
+                return None;
             }
             let w = closest_on_triangle(p, c[0], c[1], c[2]);
-            (p - (w[0] * c[0] + w[1] * c[1] + w[2] * c[2])).length_squared() < r2
+            let d2 = (p - (w[0] * c[0] + w[1] * c[1] + w[2] * c[2])).length_squared();
+            (d2 < r2).then(|| d2.sqrt())
         };
         let mut vt = Vec::new();
         let tris = if hot.is_some() { &tris_again } else { &el.tris };
@@ -239,13 +243,13 @@ impl<R: Real> ContactScratch<R> {
                 let from = out.len();
                 search(grid, in_big(m.tri_body[t as usize]), bx.0, bx.1, Box32::new(bx.0, bx.1), |k| {
                     let v = parts[k as usize];
-                    if vt_near(v, x(v), t, tv, c, n, bx) {
-                        out.push([v, t]);
+                    if let Some(d) = vt_near(v, x(v), t, tv, c, n, bx) {
+                        out.push(Candidate::new([v, t], d));
                     }
                 });
                 // Partners in index order, whatever the grid's cells: the pairs' order (and so the impulses'
                 // Gauss–Seidel order) does not depend on the cell size.
-                out[from..].sort_unstable();
+                out[from..].sort_unstable_by_key(|c| c.ids);
             }
         });
         if let Some(hot) = hot {
@@ -268,8 +272,8 @@ impl<R: Real> ContactScratch<R> {
                         }
                         let tv = m.tri_indices[t as usize];
                         let c = tv.map(x);
-                        if vt_near(v, p, t, tv, c, normal(c), tri_box(c)) {
-                            out.push([v, t]);
+                        if let Some(d) = vt_near(v, p, t, tv, c, normal(c), tri_box(c)) {
+                            out.push(Candidate::new([v, t], d));
                         }
                     });
                 }
@@ -312,22 +316,24 @@ impl<R: Real> ContactScratch<R> {
                         return;
                     }
                     let (u, v) = closest_on_segments(p, q, r, s);
-                    if ((p + u * (q - p)) - (r + v * (s - r))).length_squared() < r2 {
-                        out.push([e.min(f) as u32, e.max(f) as u32]);
+                    let d2 = ((p + u * (q - p)) - (r + v * (s - r))).length_squared();
+                    if d2 < r2 {
+                        out.push(Candidate::new([e.min(f) as u32, e.max(f) as u32], d2.sqrt()));
                     }
                 });
-                out[from..].sort_unstable();
+                out[from..].sort_unstable_by_key(|c| c.ids);
             }
         });
         if hot.is_some() {
             // Old pairs of the searched elements out, their new pairs in, in index order: (t, v) and (e, f).
             // Each list's order as one integer: the new pairs sort ~2× faster by it than as arrays or tuples.
-            let vt_key = |&[v, t]: &[u32; 2]| (t as u64) << 32 | v as u64;
-            let ee_key = |&[e, f]: &[u32; 2]| (e as u64) << 32 | f as u64;
+            let vt_key = |c: &Candidate| (c.ids[1] as u64) << 32 | c.ids[0] as u64;
+            let ee_key = |c: &Candidate| (c.ids[0] as u64) << 32 | c.ids[1] as u64;
             vt.sort_unstable_by_key(vt_key);
-            merge_sorted(&mut self.vt, vt, |&[v, t]| !tmask[t as usize] && !is_hot[v as usize], vt_key);
+            let keep = |c: &Candidate| !tmask[c.ids[1] as usize] && !is_hot[c.ids[0] as usize];
+            merge_sorted(&mut self.vt, vt, keep, vt_key);
             ee.sort_unstable_by_key(ee_key);
-            merge_sorted(&mut self.ee, ee, |&[e, f]| !emask[e as usize] && !emask[f as usize], ee_key);
+            merge_sorted(&mut self.ee, ee, |c| !emask[c.ids[0] as usize] && !emask[c.ids[1] as usize], ee_key);
         } else {
             self.vt = vt;
             self.ee = ee;

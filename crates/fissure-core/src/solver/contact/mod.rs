@@ -102,6 +102,30 @@ struct Pair {
     j: f64,
 }
 
+/// A candidate pair of the Verlet list: its two elements (a vertex and a triangle, or two edges), and its gap at
+/// the reference positions `xb` when it was found, rounded down to `f32` (its elements' particles have not moved
+/// their references since: a particle that does is hot, and every pair of its elements is found again).
+#[derive(Clone, Copy, Debug)]
+struct Candidate {
+    ids: [u32; 2],
+    gap: f32,
+}
+
+impl Candidate {
+    fn new(ids: [u32; 2], gap: f64) -> Self {
+        let g = gap as f32;
+        Candidate { ids, gap: if g as f64 > gap { g.next_down() } else { g } }
+    }
+}
+
+/// The least `f32` at or above `x`.
+fn up32(x: f64) -> f32 {
+    match x as f32 {
+        f if (f as f64) < x => f.next_up(),
+        f => f,
+    }
+}
+
 /// What the contact pass did in the last step.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct ContactStats {
@@ -136,14 +160,19 @@ pub(super) struct ContactScratch<R: Real> {
     /// Each contact particle's move this step \[m\] (`|q - x0|`; the others' entries are stale): a pair's reach
     /// is the thickness plus its particles' largest move over `GAMMA`.
     moved: Vec<f64>,
+    /// Each contact particle's drift since its reference position `xb` \[m\], rounded up (see `near`): in
+    /// `f32` from the squared drift (rounded twice, each time by at most half an ulp: `4 f32::EPSILON` of it more
+    /// is above the drift; `f64`'s square root cost the sweep over the particles twice its time).
+    drifts: Vec<f32>,
     /// Positions when the candidates were found, and their search radius (0: none yet).
     xb: Vec<R::V>,
     radius: f64,
     /// `gaps[a * nb + b]`: how far apart the boxes of bodies `a` and `b` were when the candidates were found
     /// (0 where they met; empty with more than [`CLOSING_BODIES`] bodies).
     gaps: Vec<f64>,
-    vt: Vec<[u32; 2]>,
-    ee: Vec<[u32; 2]>,
+    /// The candidates: (vertex, triangle) pairs sorted by triangle then vertex, (edge, edge) pairs sorted.
+    vt: Vec<Candidate>,
+    ee: Vec<Candidate>,
     pairs: Vec<Pair>,
     /// The pieces of `pairs` when the team evaluates them (kept: the pass runs every step).
     pair_pieces: Vec<Vec<Pair>>,
@@ -180,9 +209,22 @@ impl<R: Real> ContactScratch<R> {
     /// `h + d_P / GAMMA`, `h` the largest thickness and `d_P` the largest move this step of its four particles:
     /// a pair farther apart is not closed in by its particles' moves (each at most `GAMMA (reach - h)`) nor by
     /// the bound's start (`GAMMA h + d_i`, see `CpuSolver::contact`), by more than `2 GAMMA` of its gap.
-    fn near(&mut self, m: &Model<R>, h_max: f64) {
+    ///
+    /// Candidates that cannot be within reach are dropped before their positions are read. A candidate's gap has
+    /// closed since it was found by at most its elements' drifts since the references (the larger of each
+    /// element's particles'). So a candidate whose gap then is at least `far`, the step's largest reach `r_all`
+    /// plus twice the largest drift (see `CpuSolver::contact`), is dropped on the list's entry alone; one whose gap
+    /// less its elements' drifts is at least `r_all`, on the particles' drifts. On the folding 128² cloth most
+    /// candidates are the cloth's own neighbours two rings away, which the list keeps and which do not come
+    /// within reach: `cargo bench --bench contact`, one thread, the Zen 3 development VM, 2026-11-28, timers
+    /// inside the pass (not kept): `near` 2.30–2.52 → 0.97–1.02 ms a substep, the sweep over the particles that
+    /// measures the drifts 135 → 156 µs.
+    fn near(&mut self, m: &Model<R>, h_max: f64, r_all: f64, far: f64) {
+        // `far` and `r_all` rounded up to `f32`: a gap (rounded down) at or above one is at or above the `f64`.
+        let (far, r_all64, r_all) = (up32(far), r_all, up32(r_all));
         let el = self.el.as_ref().expect("elements prepared");
-        let (x0, moved) = (&self.x0, &self.moved);
+        let (x0, moved, drifts) = (&self.x0, &self.moved, &self.drifts);
+        let drift = |i: u32| drifts[i as usize] as f64;
         let x = |i: u32| x0[i as usize].to_dvec3();
         let reach = |p: [u32; 4]| h_max + p.iter().fold(0.0f64, |a, &i| a.max(moved[i as usize])) / GAMMA;
         let pair = |p: [u32; 4], w: [f64; 4], fallback: DVec3, b: [u32; 2], r: f64| {
@@ -201,8 +243,14 @@ impl<R: Real> ContactScratch<R> {
         let edges = &el.edges;
         // Boxes first: most candidates are not within `r` this step, and a box test is cheaper than closest points.
         let apart = |lo: DVec3, hi: DVec3, lo2: DVec3, hi2: DVec3, r: f64| (lo2 - hi).max(lo - hi2).max_element() >= r;
-        let vt_pair = |&[v, t]: &[u32; 2]| {
+        let vt_pair = |&Candidate { ids: [v, t], gap }: &Candidate| {
+            if gap >= far {
+                return None;
+            }
             let tv = m.tri_indices[t as usize];
+            if gap >= r_all && gap as f64 - (drift(v) + tv.iter().fold(0.0f64, |a, &i| a.max(drift(i)))) >= r_all64 {
+                return None;
+            }
             let r = reach([v, tv[0], tv[1], tv[2]]);
             let [a, b, cc] = tv.map(x);
             let (p, n) = (x(v), (b - a).cross(cc - a));
@@ -213,8 +261,14 @@ impl<R: Real> ContactScratch<R> {
             let b2 = [m.particle_body[v as usize], m.tri_body[t as usize]];
             pair([v, tv[0], tv[1], tv[2]], [1.0, -w[0], -w[1], -w[2]], n, b2, r)
         };
-        let ee_pair = |&[e, f]: &[u32; 2]| {
+        let ee_pair = |&Candidate { ids: [e, f], gap }: &Candidate| {
+            if gap >= far {
+                return None;
+            }
             let ([a0, a1], [b0, b1]) = (edges[e as usize], edges[f as usize]);
+            if gap >= r_all && gap as f64 - (drift(a0).max(drift(a1)) + drift(b0).max(drift(b1))) >= r_all64 {
+                return None;
+            }
             let r = reach([a0, a1, b0, b1]);
             let (p, q, u, w) = (x(a0), x(a1), x(b0), x(b1));
             if apart(p.min(q), p.max(q), u.min(w), u.max(w), r)
@@ -236,16 +290,16 @@ impl<R: Real> ContactScratch<R> {
 
 /// Writes to a slice's entries from several threads, each entry from at most one (see its use).
 #[derive(Clone, Copy)]
-struct Scatter(*mut f64);
+struct Scatter<T>(*mut T);
 
 // SAFETY: `Scatter` is used only where each entry is written by one thread and not read during the writes.
-unsafe impl Send for Scatter {}
-unsafe impl Sync for Scatter {}
+unsafe impl<T> Send for Scatter<T> {}
+unsafe impl<T> Sync for Scatter<T> {}
 
-impl Scatter {
+impl<T> Scatter<T> {
     /// # Safety
     /// `i` is in bounds and no other thread reads or writes entry `i` during the call.
-    unsafe fn write(self, i: usize, v: f64) {
+    unsafe fn write(self, i: usize, v: T) {
         // SAFETY: as the caller promises.
         unsafe { *self.0.add(i) = v };
     }
@@ -329,7 +383,8 @@ impl<R: Real> CpuSolver<R> {
         // body's box of drifts (with few bodies).
         let boxes = if fresh && m.body_count() <= CLOSING_BODIES { m.body_count() } else { 0 };
         c.moved.resize(m.particle_count(), 0.0);
-        let out = Scatter(c.moved.as_mut_ptr());
+        c.drifts.resize(m.particle_count(), 0.0);
+        let (out, drifts) = (Scatter(c.moved.as_mut_ptr()), Scatter(c.drifts.as_mut_ptr()));
         let moves = |ps: &[u32]| {
             let mut mv = Moves::new(boxes);
             for &i in ps {
@@ -342,7 +397,10 @@ impl<R: Real> CpuSolver<R> {
                 mv.d2 = mv.d2.max(d2);
                 if fresh {
                     let drift = x - xb[i].to_dvec3();
-                    mv.r2 = mv.r2.max(drift.length_squared());
+                    let r2 = drift.length_squared();
+                    mv.r2 = mv.r2.max(r2);
+                    // SAFETY: as for `moved`.
+                    unsafe { drifts.write(i, (r2 as f32).sqrt() * (1.0 + 4.0 * f32::EPSILON)) };
                     if boxes > 0 {
                         let b = m.particle_body[i] as usize;
                         mv.lo[b] = mv.lo[b].min(drift);
@@ -382,12 +440,22 @@ impl<R: Real> CpuSolver<R> {
         // one drifts `(radius - r) / 2`. Measured on the folding 128² cloth (`cargo bench --bench contact`,
         // 2026-11-23): slack 0.25 × → contact 10.0–10.9 ms per step (96 refreshes, no build, in 600 substeps);
         // 0.15 × → 10.5–12.3 ms; 0.4 × → 14.6–15.4 ms (259 refreshes); builds alone 11.9–12.7 ms.
-        let refreshed =
-            !valid && !oversize && fresh && !c.rebuild_always && c.radius > r && c.refresh(m, 0.25 * (c.radius - r));
-        if !valid && !refreshed {
+        let slack = 0.25 * (c.radius - r);
+        let refreshed = !valid && !oversize && fresh && !c.rebuild_always && c.radius > r && c.refresh(m, slack);
+        // The largest drift since the references now: a refresh moved those of the particles that drifted more
+        // than `slack`, a build all of them.
+        let drift = if valid {
+            drift
+        } else if refreshed {
+            drift.min(slack)
+        } else {
             c.build(m, SKIN * r + h_max);
-        }
-        c.near(m, h_max);
+            0.0
+        };
+        // A candidate's gap has closed by at most twice the largest drift since it was found (its elements' points
+        // each drift within it); the `1e-9` covers the rounding of the gaps (`f64`, then down to `f32`), so every
+        // candidate the test skips is one the exact tests would drop: the pairs and their order are unchanged.
+        c.near(m, h_max, r * (1.0 + 1e-9), (r + 2.0 * drift) * (1.0 + 1e-9));
         let n = m.particle_count();
         if c.dv.len() != n {
             c.dv = vec![DVec3::ZERO; n];
