@@ -241,12 +241,20 @@ impl<R: Real> ContactScratch<R> {
                 }
                 let n = normal(c);
                 let from = out.len();
-                search(grid, in_big(m.tri_body[t as usize]), bx.0, bx.1, Box32::new(bx.0, bx.1), |k| {
-                    let v = parts[k as usize];
-                    if let Some(d) = vt_near(v, x(v), t, tv, c, n, bx) {
-                        out.push(Candidate::new([v, t], d));
-                    }
-                });
+                search(
+                    grid,
+                    in_big(m.tri_body[t as usize]),
+                    bx.0,
+                    bx.1,
+                    Box32::new(bx.0, bx.1),
+                    |_| true,
+                    |k| {
+                        let v = parts[k as usize];
+                        if let Some(d) = vt_near(v, x(v), t, tv, c, n, bx) {
+                            out.push(Candidate::new([v, t], d));
+                        }
+                    },
+                );
                 // Partners in index order, whatever the grid's cells: the pairs' order (and so the impulses'
                 // Gauss–Seidel order) does not depend on the cell size.
                 out[from..].sort_unstable_by_key(|c| c.ids);
@@ -265,11 +273,10 @@ impl<R: Real> ContactScratch<R> {
                         continue;
                     }
                     // (The grid's boxes are the triangles' search boxes: the point must be in one.)
-                    search(tgrid, in_big(m.particle_body[v as usize]), p - reach, p + reach, Box32::new(p, p), |k| {
+                    let from_big = in_big(m.particle_body[v as usize]);
+                    let fresh = |k: u32| !tmask[el.tris[k as usize] as usize];
+                    search(tgrid, from_big, p - reach, p + reach, Box32::new(p, p), fresh, |k| {
                         let t = el.tris[k as usize];
-                        if tmask[t as usize] {
-                            return;
-                        }
                         let tv = m.tri_indices[t as usize];
                         let c = tv.map(x);
                         if let Some(d) = vt_near(v, p, t, tv, c, normal(c), tri_box(c)) {
@@ -300,11 +307,10 @@ impl<R: Real> ContactScratch<R> {
                 }
                 let from = out.len();
                 // (Most edges the query reaches are not within `radius`: their boxes tell.)
-                search(egrid, in_big(eb), lo, hi, Box32::new(elo - radius, ehi + radius), |f| {
+                // (The same pair is kept by one search only: the index test rides in the grid's loop.)
+                let own = |f: u32| f as usize != e && !(((f as usize) < e) && searched_too(f as usize));
+                search(egrid, in_big(eb), lo, hi, Box32::new(elo - radius, ehi + radius), own, |f| {
                     let f = f as usize;
-                    if f == e || (f < e && searched_too(f)) {
-                        return;
-                    }
                     let [b0, b1] = edges[f];
                     let (r, s) = (x(b0), x(b1));
                     if segments_apart(c1, h1, 0.5 * (r + s), 0.5 * (s - r), radius) {
@@ -351,9 +357,17 @@ impl<R: Real> ContactScratch<R> {
 /// searches from triangles 4.4–4.7; the boxes in the grids (`f64`) and tested in the loop: 10.3–10.4 and 3.5,
 /// with the grids' builds ~1 ms slower; as [`Box32`]: 9.2–9.4 and 3.4–3.6; contact per substep 10.6 → 8.9–9.1 ms.
 #[inline(always)]
-fn search(grids: &[HashGrid<Box32>; 2], from_big: bool, lo: DVec3, hi: DVec3, near: Box32, mut f: impl FnMut(u32)) {
+fn search(
+    grids: &[HashGrid<Box32>; 2],
+    from_big: bool,
+    lo: DVec3,
+    hi: DVec3,
+    near: Box32,
+    take: impl Fn(u32) -> bool,
+    mut f: impl FnMut(u32),
+) {
     let [rest, big] = grids;
-    let keep = |b: &Box32| !b.apart(&near);
+    let keep = |i: u32, b: &Box32| !b.apart(&near) && take(i);
     rest.query_where(lo, hi, keep, |i, _| f(i));
     if !from_big {
         big.query_where(lo, hi, keep, |i, _| f(i));
