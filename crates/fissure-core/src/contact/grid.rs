@@ -191,10 +191,11 @@ impl<P: Copy + Default> HashGrid<P> {
     }
 
     /// [`HashGrid::query`], calling `f` only on the points (index and payload) that `keep` keeps. `keep` (a
-    /// search's first, cheap tests: a box, an index) is compiled into the loop over the cells' points, and `f`, the rest of the search's
-    /// test, is called on the few it keeps: measured on the folding 128² cloth (2026-11-28), a search's whole
-    /// visit as one closure was compiled as a function called per point (a stack frame of ~200 bytes set up and
-    /// torn down for each), and three quarters of the points a search visits fail its box.
+    /// search's first, cheap tests: a box, an index) is compiled into the loop over the cells' points, and `f`,
+    /// the rest of the search's test, is called on the few it keeps: measured on the folding 128² cloth
+    /// (2026-11-28), a search's whole visit as one closure was compiled as a function called per point (a stack
+    /// frame of ~200 bytes set up and torn down for each), and three quarters of the points a search visits fail
+    /// its box.
     #[inline(always)]
     pub fn query_where(&self, lo: DVec3, hi: DVec3, keep: impl Fn(u32, &P) -> bool, mut f: impl FnMut(u32, &P)) {
         let mut f = |i: u32, p: &P| {
