@@ -349,8 +349,8 @@ impl<R: Real> ContactScratch<R> {
 
 /// Visits what an element of a body searches: the other bodies' grid (`rest`), and the big body's unless it is
 /// the searcher's own, in the cells that meet `[lo, hi]`, and calls `f` on the elements whose boxes (the grids'
-/// payloads) are not apart from `near`. The box test is compiled into the grid's query loop, `f` is called on what
-/// passes it (see [`HashGrid::query_where`]); generic over the visit (as a `&mut dyn FnMut` it was an indirect
+/// payloads) are not apart from `near` and whose indices `take` takes. Both tests are compiled into the grid's
+/// query loop, `f` is called on what passes them (see [`HashGrid::query_where`]); generic over the visit (as a `&mut dyn FnMut` it was an indirect
 /// call per point visited). On the folding 128² cloth (`cargo bench --bench contact`, one thread, the Zen 3
 /// development VM, 2026-11-28, timers inside a refresh, not kept, alternated with the build before): the boxes
 /// read from arrays in index order and the whole visit called per point: edge searches 11.6–13.6 ms a refresh,
