@@ -308,7 +308,7 @@ impl<R: Real> ContactScratch<R> {
                 let from = out.len();
                 // (Most edges the query reaches are not within `radius`: their boxes tell.)
                 // (The same pair is kept by one search only: the index test rides in the grid's loop.)
-                let own = |f: u32| f as usize != e && !(((f as usize) < e) && searched_too(f as usize));
+                let own = |f: u32| f as usize > e || ((f as usize) < e && !searched_too(f as usize));
                 search(egrid, in_big(eb), lo, hi, Box32::new(elo - radius, ehi + radius), own, |f| {
                     let f = f as usize;
                     let [b0, b1] = edges[f];
@@ -350,12 +350,13 @@ impl<R: Real> ContactScratch<R> {
 /// Visits what an element of a body searches: the other bodies' grid (`rest`), and the big body's unless it is
 /// the searcher's own, in the cells that meet `[lo, hi]`, and calls `f` on the elements whose boxes (the grids'
 /// payloads) are not apart from `near` and whose indices `take` takes. Both tests are compiled into the grid's
-/// query loop, `f` is called on what passes them (see [`HashGrid::query_where`]); generic over the visit (as a `&mut dyn FnMut` it was an indirect
-/// call per point visited). On the folding 128² cloth (`cargo bench --bench contact`, one thread, the Zen 3
-/// development VM, 2026-11-28, timers inside a refresh, not kept, alternated with the build before): the boxes
-/// read from arrays in index order and the whole visit called per point: edge searches 11.6–13.6 ms a refresh,
-/// searches from triangles 4.4–4.7; the boxes in the grids (`f64`) and tested in the loop: 10.3–10.4 and 3.5,
-/// with the grids' builds ~1 ms slower; as [`Box32`]: 9.2–9.4 and 3.4–3.6; contact per substep 10.6 → 8.9–9.1 ms.
+/// query loop, `f` is called on what passes them (see [`HashGrid::query_where`]); generic over the visit (as a
+/// `&mut dyn FnMut` it was an indirect call per point visited). On the folding 128² cloth (`cargo bench --bench
+/// contact`, one thread, the Zen 3 development VM, 2026-11-28, timers inside a refresh, not kept, alternated with
+/// the build before): the boxes read from arrays in index order and the whole visit called per point: edge
+/// searches 11.6–13.6 ms a refresh, searches from triangles 4.4–4.7; the boxes in the grids (`f64`) and tested in
+/// the loop: 10.3–10.4 and 3.5, with the grids' builds ~1 ms slower; as [`Box32`]: 9.2–9.4 and 3.4–3.6; contact
+/// per substep 10.6 → 8.9–9.1 ms.
 #[inline(always)]
 fn search(
     grids: &[HashGrid<Box32>; 2],

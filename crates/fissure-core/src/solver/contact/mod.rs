@@ -113,8 +113,7 @@ struct Candidate {
 
 impl Candidate {
     fn new(ids: [u32; 2], gap: f64) -> Self {
-        let g = gap as f32;
-        Candidate { ids, gap: if g as f64 > gap { g.next_down() } else { g } }
+        Candidate { ids, gap: down32(gap) }
     }
 }
 
@@ -122,6 +121,14 @@ impl Candidate {
 fn up32(x: f64) -> f32 {
     match x as f32 {
         f if (f as f64) < x => f.next_up(),
+        f => f,
+    }
+}
+
+/// The greatest `f32` at or below `x`.
+fn down32(x: f64) -> f32 {
+    match x as f32 {
+        f if (f as f64) > x => f.next_down(),
         f => f,
     }
 }
