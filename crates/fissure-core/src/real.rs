@@ -273,3 +273,14 @@ pub(crate) fn as_f32_mut<R: Real>(x: &mut [R]) -> &mut [f32] {
     // SAFETY: `R` is `f32` (asserted): the same type.
     unsafe { std::slice::from_raw_parts_mut(x.as_mut_ptr().cast::<f32>(), x.len()) }
 }
+
+/// `x`'s padded vectors ([`Real::VA`]) as `f32` components, four a vector (glam's [`Vec3A`] layout), where `R` is
+/// `f32` (the caller checks; otherwise it panics).
+#[cfg(target_arch = "x86_64")]
+#[inline(always)]
+pub(crate) fn va_as_f32_mut<R: Real>(x: &mut [R::VA]) -> &mut [f32] {
+    assert_eq!(std::any::TypeId::of::<R>(), std::any::TypeId::of::<f32>());
+    const { assert!(std::mem::size_of::<Vec3A>() == 16) };
+    // SAFETY: `R` is `f32` (asserted), so `R::VA` is `Vec3A`: 16 bytes of four `f32`s (size checked above).
+    unsafe { std::slice::from_raw_parts_mut(x.as_mut_ptr().cast::<f32>(), 4 * x.len()) }
+}

@@ -7,6 +7,8 @@
 //! volumes, and then each corner's share of the pressure and wind forces. Cloth grids in wind without gas take
 //! the grid wind pass instead (`forces/wind_grid.rs`): whole rows of quads, summed per particle without a gather.
 
+#[cfg(target_arch = "x86_64")]
+mod cross_avx2;
 pub mod pressure;
 pub(crate) mod runs;
 #[cfg(target_arch = "x86_64")]
@@ -251,6 +253,17 @@ pub(crate) fn cross_chunk<R: Real>(
     cross: &mut [R::VA],
     part: &mut [R],
 ) {
+    // `f32` on AVX2: eight triangles at a time (`cross_avx2`), the same bits.
+    #[cfg(target_arch = "x86_64")]
+    if std::any::TypeId::of::<R>() == std::any::TypeId::of::<f32>() && crate::isa::avx2() {
+        use crate::real::{as_f32, as_f32_mut, va_as_f32_mut};
+        let range = start..start + cross.len();
+        let model = (&m.tri_indices[range.clone()], &m.tri_body[range]);
+        let bodies = (as_f32(&m.body_gas_amount), &m.body_anchor[..]);
+        let (q, cross, part) = (as_f32(R::flat(q)), va_as_f32_mut::<R>(cross), as_f32_mut(part));
+        // SAFETY: the CPU has AVX2 (tested just above).
+        return unsafe { cross_avx2::crosses(q, model.0, model.1, bodies, pressure, cross, part) };
+    }
     part.iter_mut().for_each(|p| *p = R::ZERO);
     let (mut cur, mut acc, mut anchor) = (usize::MAX, R::ZERO, R::V::ZERO);
     for (k, c) in cross.iter_mut().enumerate() {

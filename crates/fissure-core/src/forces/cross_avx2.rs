@@ -1,0 +1,299 @@
+//! The surface pass's crosses and gas volume terms ([`super::cross_chunk`]) in `f32` on AVX2, eight triangles at
+//! a time, written with its intrinsics.
+//!
+//! Each corner's eight positions are read as 16-byte loads (the 3-vector and one value past it, unused) and split
+//! into components with seven shuffles (Intel's AoS-to-SoA transposition: each 128-bit half holds four of the
+//! eight triangles); the two edges, the cross and the volume term are formed per component, and the crosses are
+//! joined back into [`glam::Vec3A`]s (`x, y, z, z`: glam's own layout) with six shuffles. The volume terms are
+//! then added to the body's sum one after another, in the triangles' order, as the portable loop adds them.
+//!
+//! Why by hand: the portable loop is scalar (each triangle's positions come through its indices, and the volume
+//! sum is one chain that the compiler may not reorder), ~30 instructions a triangle; this is ~12. The chain of
+//! additions (one a triangle, ~3 cycles each) stays: reordering it would change the bits.
+//!
+//! The same bits as the portable loop: each lane's maths is glam's `cross` and `dot` in their order (no fused
+//! multiply-adds), and a block of eight is taken this way only when its triangles are of one body and none reads
+//! the last particle (whose 16-byte load would pass the end of the positions); any other block, and the chunk's
+//! tail, go the portable way, triangle by triangle.
+
+use std::arch::x86_64::*;
+
+use glam::Vec3;
+
+/// `_MM_SHUFFLE(z, y, x, w)`: `_mm256_shuffle_ps(a, b, ·)` takes `a[w], a[x], b[y], b[z]` in each 128-bit half.
+const fn shuf(z: i32, y: i32, x: i32, w: i32) -> i32 {
+    (z << 6) | (y << 4) | (x << 2) | w
+}
+
+/// A chunk of the surface pass (see [`super::cross_chunk`]): triangles `tris` (corner indices), of bodies
+/// `bodies`, at positions `q` (3-vectors as flat components, `3n` values); each triangle's cross into `cross` (4
+/// values a triangle, the [`glam::Vec3A`] layout), and with `pressure` its volume term `(x0 − anchor) · cross`
+/// summed into `part[body]` for the bodies whose `gas` is positive (`anchor`: each body's anchor particle).
+///
+/// # Safety
+/// The CPU has AVX2 (the bounds are checked here).
+#[target_feature(enable = "avx2")]
+#[allow(clippy::too_many_arguments)]
+pub(super) unsafe fn crosses(
+    q: &[f32],
+    tris: &[[u32; 3]],
+    bodies: &[u32],
+    (gas, anchors): (&[f32], &[u32]),
+    pressure: bool,
+    cross: &mut [f32],
+    part: &mut [f32],
+) {
+    let n = q.len() / 3;
+    // (Every other index is checked where it is used: the wide blocks' corners below, the rest by the slices.)
+    assert!(bodies.len() == tris.len() && cross.len() == 4 * tris.len() && q.len() == 3 * n);
+    let at = |i: u32| Vec3::from_slice(&q[3 * i as usize..3 * i as usize + 3]);
+    part.iter_mut().for_each(|p| *p = 0.0);
+    // The body whose sum is in `acc` (`usize::MAX`: none yet), and its anchor.
+    let (mut cur, mut acc, mut anchor) = (usize::MAX, 0.0f32, Vec3::ZERO);
+    let mut k = 0;
+    for (t8, b8) in tris.chunks_exact(8).zip(bodies.chunks_exact(8)) {
+        let body = b8[0];
+        // SAFETY: `t8` holds 24 indices and `b8` 8 bodies.
+        let wide = n >= 2 && unsafe { fits(t8.as_ptr().cast(), b8.as_ptr(), n - 2) };
+        if !wide {
+            for (t, &b) in t8.iter().zip(b8) {
+                let c = one(at, *t, &mut cross[4 * k..4 * k + 4]);
+                if pressure && gas[b as usize] > 0.0 {
+                    if b as usize != cur {
+                        if cur != usize::MAX {
+                            part[cur] = acc;
+                        }
+                        (cur, acc, anchor) = (b as usize, part[b as usize], at(anchors[b as usize]));
+                    }
+                    acc += (at(t[0]) - anchor).dot(c);
+                }
+                k += 1;
+            }
+            continue;
+        }
+        let gassy = pressure && gas[body as usize] > 0.0;
+        if gassy && body as usize != cur {
+            if cur != usize::MAX {
+                part[cur] = acc;
+            }
+            (cur, acc, anchor) = (body as usize, part[body as usize], at(anchors[body as usize]));
+        }
+        // SAFETY: every index is below `n - 1` (tested above), so each 16-byte load stays in `q`; the block's
+        // crosses are `cross[4k .. 4k + 32]`, inside `cross` (its length asserted above).
+        let dots = unsafe { block(q.as_ptr(), t8, anchor, cross.as_mut_ptr().add(4 * k), gassy) };
+        if gassy {
+            for d in dots {
+                acc += d;
+            }
+        }
+        k += 8;
+    }
+    for (t, &b) in tris[k..].iter().zip(&bodies[k..]) {
+        let c = one(at, *t, &mut cross[4 * k..4 * k + 4]);
+        if pressure && gas[b as usize] > 0.0 {
+            if b as usize != cur {
+                if cur != usize::MAX {
+                    part[cur] = acc;
+                }
+                (cur, acc, anchor) = (b as usize, part[b as usize], at(anchors[b as usize]));
+            }
+            acc += (at(t[0]) - anchor).dot(c);
+        }
+        k += 1;
+    }
+    if cur != usize::MAX {
+        part[cur] = acc;
+    }
+}
+
+/// Whether a block of eight triangles (`t`: 24 corner indices, `b`: their 8 bodies) can go the wide way: every
+/// corner index at most `last` and every body the first's (three unsigned comparisons and one equality test on
+/// eight lanes, instead of 32 scalar tests a block).
+///
+/// # Safety
+/// AVX2; `t` holds 24 values and `b` 8.
+#[target_feature(enable = "avx2")]
+#[inline]
+unsafe fn fits(t: *const u32, b: *const u32, last: usize) -> bool {
+    let lim = _mm256_set1_epi32(u32::try_from(last).unwrap_or(u32::MAX) as i32);
+    // SAFETY: the caller's bounds.
+    let (t0, t1, t2, b) = unsafe {
+        (
+            _mm256_loadu_si256(t.cast()),
+            _mm256_loadu_si256(t.add(8).cast()),
+            _mm256_loadu_si256(t.add(16).cast()),
+            _mm256_loadu_si256(b.cast()),
+        )
+    };
+    // `x <= last` as `max(x, last) == last` (unsigned; a macro, not a closure: see `block`).
+    macro_rules! below {
+        ($x:expr) => {
+            _mm256_cmpeq_epi32(_mm256_max_epu32($x, lim), lim)
+        };
+    }
+    let same = _mm256_cmpeq_epi32(b, _mm256_set1_epi32(_mm256_extract_epi32::<0>(b)));
+    let ok = _mm256_and_si256(_mm256_and_si256(below!(t0), below!(t1)), _mm256_and_si256(below!(t2), same));
+    _mm256_movemask_epi8(ok) == -1
+}
+
+/// One triangle the portable way: its cross into `out` (`x, y, z, z`), returned.
+#[inline(always)]
+fn one(at: impl Fn(u32) -> Vec3, [a, b, d]: [u32; 3], out: &mut [f32]) -> Vec3 {
+    let x0 = at(a);
+    let c = (at(b) - x0).cross(at(d) - x0);
+    out.copy_from_slice(&[c.x, c.y, c.z, c.z]);
+    c
+}
+
+/// Eight triangles of one body: their crosses stored at `out` (32 values), their volume terms returned (when
+/// `gassy`; else zeros). Written without closures or `map`: those are compiled without the caller's AVX2, and
+/// their intrinsics become calls (`super::runs_avx2`).
+///
+/// # Safety
+/// AVX2; each corner index `i` has `3i + 4 <= q`'s length, and `out` holds 32 values.
+#[target_feature(enable = "avx2")]
+#[inline]
+unsafe fn block(q: *const f32, t: &[[u32; 3]], anchor: Vec3, out: *mut f32, gassy: bool) -> [f32; 8] {
+    // Corner `$c` of the eight triangles as three registers of components, lane `l` triangle `l`.
+    macro_rules! corner {
+        ($c:expr) => {{
+            // SAFETY: the caller's bounds.
+            macro_rules! pair {
+                ($l:expr) => {
+                    unsafe {
+                        _mm256_insertf128_ps::<1>(
+                            _mm256_castps128_ps256(_mm_loadu_ps(q.add(3 * t[$l][$c] as usize))),
+                            _mm_loadu_ps(q.add(3 * t[$l + 4][$c] as usize)),
+                        )
+                    }
+                };
+            }
+            let (r0, r1, r2, r3) = (pair!(0), pair!(1), pair!(2), pair!(3));
+            let (t0, t1) = (_mm256_unpacklo_ps(r0, r1), _mm256_unpackhi_ps(r0, r1));
+            let (t2, t3) = (_mm256_unpacklo_ps(r2, r3), _mm256_unpackhi_ps(r2, r3));
+            (
+                _mm256_shuffle_ps::<{ shuf(1, 0, 1, 0) }>(t0, t2),
+                _mm256_shuffle_ps::<{ shuf(3, 2, 3, 2) }>(t0, t2),
+                _mm256_shuffle_ps::<{ shuf(1, 0, 1, 0) }>(t1, t3),
+            )
+        }};
+    }
+    let (x0, y0, z0) = corner!(0);
+    let (x1, y1, z1) = corner!(1);
+    let (x2, y2, z2) = corner!(2);
+    let (ax, ay, az) = (_mm256_sub_ps(x1, x0), _mm256_sub_ps(y1, y0), _mm256_sub_ps(z1, z0));
+    let (bx, by, bz) = (_mm256_sub_ps(x2, x0), _mm256_sub_ps(y2, y0), _mm256_sub_ps(z2, z0));
+    // glam's `cross` of a = x1 − x0 and b = x2 − x0: (ay bz − by az, az bx − bz ax, ax by − bx ay).
+    let cx = _mm256_sub_ps(_mm256_mul_ps(ay, bz), _mm256_mul_ps(by, az));
+    let cy = _mm256_sub_ps(_mm256_mul_ps(az, bx), _mm256_mul_ps(bz, ax));
+    let cz = _mm256_sub_ps(_mm256_mul_ps(ax, by), _mm256_mul_ps(bx, ay));
+    // Back to `x, y, z, z` per triangle: register `l` holds triangle `l` in its low half, `l + 4` in its high.
+    let (u0, u1) = (_mm256_unpacklo_ps(cx, cy), _mm256_unpackhi_ps(cx, cy));
+    let (v0, v1) = (_mm256_unpacklo_ps(cz, cz), _mm256_unpackhi_ps(cz, cz));
+    let o0 = _mm256_shuffle_ps::<{ shuf(1, 0, 1, 0) }>(u0, v0);
+    let o1 = _mm256_shuffle_ps::<{ shuf(3, 2, 3, 2) }>(u0, v0);
+    let o2 = _mm256_shuffle_ps::<{ shuf(1, 0, 1, 0) }>(u1, v1);
+    let o3 = _mm256_shuffle_ps::<{ shuf(3, 2, 3, 2) }>(u1, v1);
+    // SAFETY: `out` holds 32 values (the caller's bounds).
+    unsafe {
+        _mm_storeu_ps(out, _mm256_castps256_ps128(o0));
+        _mm_storeu_ps(out.add(4), _mm256_castps256_ps128(o1));
+        _mm_storeu_ps(out.add(8), _mm256_castps256_ps128(o2));
+        _mm_storeu_ps(out.add(12), _mm256_castps256_ps128(o3));
+        _mm_storeu_ps(out.add(16), _mm256_extractf128_ps::<1>(o0));
+        _mm_storeu_ps(out.add(20), _mm256_extractf128_ps::<1>(o1));
+        _mm_storeu_ps(out.add(24), _mm256_extractf128_ps::<1>(o2));
+        _mm_storeu_ps(out.add(28), _mm256_extractf128_ps::<1>(o3));
+    }
+    let mut dots = [0.0f32; 8];
+    if gassy {
+        // glam's `dot` of `x0 − anchor` and the cross: (dx cx + dy cy) + dz cz.
+        let dx = _mm256_sub_ps(x0, _mm256_set1_ps(anchor.x));
+        let dy = _mm256_sub_ps(y0, _mm256_set1_ps(anchor.y));
+        let dz = _mm256_sub_ps(z0, _mm256_set1_ps(anchor.z));
+        let s = _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(dx, cx), _mm256_mul_ps(dy, cy)), _mm256_mul_ps(dz, cz));
+        // SAFETY: `dots` holds 8 values.
+        unsafe { _mm256_storeu_ps(dots.as_mut_ptr(), s) };
+    }
+    dots
+}
+
+#[cfg(test)]
+mod tests {
+    use crate::real::Real;
+    use glam::{Vec3, Vec3A};
+
+    /// The portable loop (`super::super::cross_chunk`'s), written out over plain slices.
+    fn portable(q: &[Vec3], tris: &[[u32; 3]], bodies: &[u32], gas: &[f32], anchors: &[u32]) -> (Vec<f32>, Vec<f32>) {
+        let (mut cross, mut part) = (Vec::new(), vec![0.0f32; gas.len()]);
+        let (mut cur, mut acc, mut anchor) = (usize::MAX, 0.0f32, Vec3::ZERO);
+        for (&[a, b, d], &body) in tris.iter().zip(bodies) {
+            let (x0, x1, x2) = (q[a as usize], q[b as usize], q[d as usize]);
+            let cr = (x1 - x0).cross(x2 - x0);
+            // glam's own padded layout (`x, y, z, z`).
+            let padded = Vec3A::from(cr);
+            // SAFETY: a `Vec3A` is four `f32`s.
+            cross.extend(unsafe { std::mem::transmute::<Vec3A, [f32; 4]>(padded) });
+            let body = body as usize;
+            if gas[body] > 0.0 {
+                if body != cur {
+                    if cur != usize::MAX {
+                        part[cur] = acc;
+                    }
+                    (cur, acc, anchor) = (body, part[body], q[anchors[body] as usize]);
+                }
+                acc += (x0 - anchor).dot(cr);
+            }
+        }
+        if cur != usize::MAX {
+            part[cur] = acc;
+        }
+        (cross, part)
+    }
+
+    /// Every block kind (one body, two bodies, a body without gas, a corner on the last particle) and every tail
+    /// length 0–7 give the portable loop's bits.
+    #[test]
+    fn crosses_match_the_portable_loop() {
+        if !std::arch::is_x86_feature_detected!("avx2") {
+            return;
+        }
+        let n = 97u32;
+        let mut seed = 0x2545_f491_4f6c_dd1du64;
+        let mut next = move || {
+            seed ^= seed << 13;
+            seed ^= seed >> 7;
+            seed ^= seed << 17;
+            seed
+        };
+        let q: Vec<Vec3> =
+            (0..n).map(|_| Vec3::from_array([0; 3].map(|_| (next() % 20_000) as f32 * 1e-4 - 1.0))).collect();
+        let (gas, anchors) = (vec![2.0f32, 0.0, 1.5], vec![5u32, 17, 40]);
+        for len in 64..72 {
+            let tris: Vec<[u32; 3]> = (0..len)
+                .map(|k| if k == 9 { [n - 1, 3, 4] } else { [0; 3].map(|_| (next() % n as u64) as u32) })
+                .collect();
+            // Runs of one body, a block with two, a body without gas.
+            let bodies: Vec<u32> = (0..len)
+                .map(|k| {
+                    if k < 24 {
+                        0
+                    } else if k < 29 {
+                        2
+                    } else if k < 40 {
+                        1
+                    } else {
+                        2
+                    }
+                })
+                .collect();
+            let (want_cross, want_part) = portable(&q, &tris, &bodies, &gas, &anchors);
+            let (mut cross, mut part) = (vec![f32::NAN; 4 * len], vec![f32::NAN; 3]);
+            // SAFETY: AVX2, tested above.
+            unsafe { super::crosses(f32::flat(&q), &tris, &bodies, (&gas, &anchors), true, &mut cross, &mut part) };
+            let bits = |v: &[f32]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+            assert_eq!(bits(&cross), bits(&want_cross), "crosses, {len} triangles");
+            assert_eq!(bits(&part), bits(&want_part), "volume partials, {len} triangles");
+        }
+    }
+}
