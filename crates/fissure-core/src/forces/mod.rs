@@ -243,7 +243,8 @@ impl<R: Real> ForceScratch<R> {
 /// summed into `part` (the chunk's row of partials, one per body). A chunk's partial sums are adjacent to the next
 /// chunk's: summed in a register and stored when the body changes (a store per triangle into a line another
 /// thread writes cost the pass 2× its one-thread time on two threads). The additions are the same, in the same
-/// order: the same bits.
+/// order: the same bits. In `f32` on AVX2, eight triangles at a time (`cross_avx2`, the same bits): on the
+/// 10,242-vertex ball, one thread, the Zen 4 development VM, 2026-11-28, the pass ~65 → 38 µs a step.
 #[inline]
 pub(crate) fn cross_chunk<R: Real>(
     m: &Model<R>,
