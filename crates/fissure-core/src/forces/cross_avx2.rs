@@ -48,61 +48,67 @@ pub(super) unsafe fn crosses(
     assert!(bodies.len() == tris.len() && cross.len() == 4 * tris.len() && q.len() == 3 * n);
     let at = |i: u32| Vec3::from_slice(&q[3 * i as usize..3 * i as usize + 3]);
     part.iter_mut().for_each(|p| *p = 0.0);
-    // The body whose sum is in `acc` (`usize::MAX`: none yet), and its anchor.
-    let (mut cur, mut acc, mut anchor) = (usize::MAX, 0.0f32, Vec3::ZERO);
+    let mut sum = Sum { body: usize::MAX, acc: 0.0, anchor: Vec3::ZERO };
+    // Triangle `k` the portable way.
+    let one = |k: usize, sum: &mut Sum, cross: &mut [f32], part: &mut [f32]| {
+        let [a, b, d] = tris[k];
+        let x0 = at(a);
+        let c = (at(b) - x0).cross(at(d) - x0);
+        cross[4 * k..4 * k + 4].copy_from_slice(&[c.x, c.y, c.z, c.z]);
+        let body = bodies[k] as usize;
+        if pressure && gas[body] > 0.0 {
+            sum.switch(body, part, || at(anchors[body]));
+            sum.acc += (x0 - sum.anchor).dot(c);
+        }
+    };
     let mut k = 0;
     for (t8, b8) in tris.chunks_exact(8).zip(bodies.chunks_exact(8)) {
-        let body = b8[0];
         // SAFETY: `t8` holds 24 indices and `b8` 8 bodies.
         let wide = n >= 2 && unsafe { fits(t8.as_ptr().cast(), b8.as_ptr(), n - 2) };
         if !wide {
-            for (t, &b) in t8.iter().zip(b8) {
-                let c = one(at, *t, &mut cross[4 * k..4 * k + 4]);
-                if pressure && gas[b as usize] > 0.0 {
-                    if b as usize != cur {
-                        if cur != usize::MAX {
-                            part[cur] = acc;
-                        }
-                        (cur, acc, anchor) = (b as usize, part[b as usize], at(anchors[b as usize]));
-                    }
-                    acc += (at(t[0]) - anchor).dot(c);
-                }
-                k += 1;
-            }
+            (k..k + 8).for_each(|k| one(k, &mut sum, cross, part));
+            k += 8;
             continue;
         }
-        let gassy = pressure && gas[body as usize] > 0.0;
-        if gassy && body as usize != cur {
-            if cur != usize::MAX {
-                part[cur] = acc;
-            }
-            (cur, acc, anchor) = (body as usize, part[body as usize], at(anchors[body as usize]));
+        let body = b8[0] as usize;
+        let gassy = pressure && gas[body] > 0.0;
+        if gassy {
+            sum.switch(body, part, || at(anchors[body]));
         }
         // SAFETY: every index is below `n - 1` (tested above), so each 16-byte load stays in `q`; the block's
         // crosses are `cross[4k .. 4k + 32]`, inside `cross` (its length asserted above).
-        let dots = unsafe { block(q.as_ptr(), t8, anchor, cross.as_mut_ptr().add(4 * k), gassy) };
+        let dots = unsafe { block(q.as_ptr(), t8, sum.anchor, cross.as_mut_ptr().add(4 * k), gassy) };
         if gassy {
             for d in dots {
-                acc += d;
+                sum.acc += d;
             }
         }
         k += 8;
     }
-    for (t, &b) in tris[k..].iter().zip(&bodies[k..]) {
-        let c = one(at, *t, &mut cross[4 * k..4 * k + 4]);
-        if pressure && gas[b as usize] > 0.0 {
-            if b as usize != cur {
-                if cur != usize::MAX {
-                    part[cur] = acc;
-                }
-                (cur, acc, anchor) = (b as usize, part[b as usize], at(anchors[b as usize]));
-            }
-            acc += (at(t[0]) - anchor).dot(c);
-        }
-        k += 1;
+    (k..tris.len()).for_each(|k| one(k, &mut sum, cross, part));
+    if sum.body != usize::MAX {
+        part[sum.body] = sum.acc;
     }
-    if cur != usize::MAX {
-        part[cur] = acc;
+}
+
+/// The volume sum being added to: its body's (`usize::MAX`: none yet), kept in a register between triangles and
+/// stored into the chunk's partials when the body changes (as in the portable loop).
+struct Sum {
+    body: usize,
+    acc: f32,
+    anchor: Vec3,
+}
+
+impl Sum {
+    /// Makes `body`'s sum the current one, storing the last body's into `part` (`anchor`: the new body's).
+    #[inline(always)]
+    fn switch(&mut self, body: usize, part: &mut [f32], anchor: impl FnOnce() -> Vec3) {
+        if body != self.body {
+            if self.body != usize::MAX {
+                part[self.body] = self.acc;
+            }
+            (self.body, self.acc, self.anchor) = (body, part[body], anchor());
+        }
     }
 }
 
@@ -134,15 +140,6 @@ unsafe fn fits(t: *const u32, b: *const u32, last: usize) -> bool {
     let same = _mm256_cmpeq_epi32(b, _mm256_set1_epi32(_mm256_extract_epi32::<0>(b)));
     let ok = _mm256_and_si256(_mm256_and_si256(below!(t0), below!(t1)), _mm256_and_si256(below!(t2), same));
     _mm256_movemask_epi8(ok) == -1
-}
-
-/// One triangle the portable way: its cross into `out` (`x, y, z, z`), returned.
-#[inline(always)]
-fn one(at: impl Fn(u32) -> Vec3, [a, b, d]: [u32; 3], out: &mut [f32]) -> Vec3 {
-    let x0 = at(a);
-    let c = (at(b) - x0).cross(at(d) - x0);
-    out.copy_from_slice(&[c.x, c.y, c.z, c.z]);
-    c
 }
 
 /// Eight triangles of one body: their crosses stored at `out` (32 values), their volume terms returned (when
