@@ -20,10 +20,8 @@ use std::arch::x86_64::*;
 
 use glam::Vec3;
 
-/// `_MM_SHUFFLE(z, y, x, w)`: `_mm256_shuffle_ps(a, b, ·)` takes `a[w], a[x], b[y], b[z]` in each 128-bit half.
-const fn shuf(z: i32, y: i32, x: i32, w: i32) -> i32 {
-    (z << 6) | (y << 4) | (x << 2) | w
-}
+use super::VolumeSum;
+use super::runs_avx2::shuf;
 
 /// A chunk of the surface pass (see [`super::cross_chunk`]): triangles `tris` (corner indices), of bodies
 /// `bodies`, at positions `q` (3-vectors as flat components, `3n` values); each triangle's cross into `cross` (4
@@ -48,9 +46,9 @@ pub(super) unsafe fn crosses(
     assert!(bodies.len() == tris.len() && cross.len() == 4 * tris.len() && q.len() == 3 * n);
     let at = |i: u32| Vec3::from_slice(&q[3 * i as usize..3 * i as usize + 3]);
     part.iter_mut().for_each(|p| *p = 0.0);
-    let mut sum = Sum { body: usize::MAX, acc: 0.0, anchor: Vec3::ZERO };
+    let mut sum = VolumeSum::<f32>::new();
     // Triangle `k` the portable way.
-    let one = |k: usize, sum: &mut Sum, cross: &mut [f32], part: &mut [f32]| {
+    let one = |k: usize, sum: &mut VolumeSum<f32>, cross: &mut [f32], part: &mut [f32]| {
         let [a, b, d] = tris[k];
         let x0 = at(a);
         let c = (at(b) - x0).cross(at(d) - x0);
@@ -86,30 +84,7 @@ pub(super) unsafe fn crosses(
         k += 8;
     }
     (k..tris.len()).for_each(|k| one(k, &mut sum, cross, part));
-    if sum.body != usize::MAX {
-        part[sum.body] = sum.acc;
-    }
-}
-
-/// The volume sum being added to: its body's (`usize::MAX`: none yet), kept in a register between triangles and
-/// stored into the chunk's partials when the body changes (as in the portable loop).
-struct Sum {
-    body: usize,
-    acc: f32,
-    anchor: Vec3,
-}
-
-impl Sum {
-    /// Makes `body`'s sum the current one, storing the last body's into `part` (`anchor`: the new body's).
-    #[inline(always)]
-    fn switch(&mut self, body: usize, part: &mut [f32], anchor: impl FnOnce() -> Vec3) {
-        if body != self.body {
-            if self.body != usize::MAX {
-                part[self.body] = self.acc;
-            }
-            (self.body, self.acc, self.anchor) = (body, part[body], anchor());
-        }
-    }
+    sum.finish(part);
 }
 
 /// Whether a block of eight triangles (`t`: 24 corner indices, `b`: their 8 bodies) can go the wide way: every

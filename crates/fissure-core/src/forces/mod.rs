@@ -266,7 +266,7 @@ pub(crate) fn cross_chunk<R: Real>(
         return unsafe { cross_avx2::crosses(q, model.0, model.1, bodies, pressure, cross, part) };
     }
     part.iter_mut().for_each(|p| *p = R::ZERO);
-    let (mut cur, mut acc, mut anchor) = (usize::MAX, R::ZERO, R::V::ZERO);
+    let mut sum = VolumeSum::new();
     for (k, c) in cross.iter_mut().enumerate() {
         let t = start + k;
         let [a, b, d] = m.tri_indices[t];
@@ -276,18 +276,45 @@ pub(crate) fn cross_chunk<R: Real>(
         if pressure {
             let body = m.tri_body[t] as usize;
             if m.body_gas_amount[body] > R::ZERO {
-                if body != cur {
-                    if cur != usize::MAX {
-                        part[cur] = acc;
-                    }
-                    (cur, acc, anchor) = (body, part[body], q[m.body_anchor[body] as usize]);
-                }
-                acc += (x0 - anchor).dot(cr);
+                sum.switch(body, part, || q[m.body_anchor[body] as usize]);
+                sum.acc += (x0 - sum.anchor).dot(cr);
             }
         }
     }
-    if cur != usize::MAX {
-        part[cur] = acc;
+    sum.finish(part);
+}
+
+/// The gas volume sum a chunk of the surface pass is adding to ([`cross_chunk`] and its `f32` kernel on AVX2):
+/// its body's (`usize::MAX`: none yet), kept in a register between triangles and stored into the chunk's
+/// partials when the body changes, with the body's anchor.
+pub(super) struct VolumeSum<R: Real> {
+    body: usize,
+    pub(super) acc: R,
+    pub(super) anchor: R::V,
+}
+
+impl<R: Real> VolumeSum<R> {
+    pub(super) fn new() -> Self {
+        VolumeSum { body: usize::MAX, acc: R::ZERO, anchor: R::V::ZERO }
+    }
+
+    /// Makes `body`'s sum the current one, storing the last body's into `part` (`anchor`: the new body's).
+    #[inline(always)]
+    pub(super) fn switch(&mut self, body: usize, part: &mut [R], anchor: impl FnOnce() -> R::V) {
+        if body != self.body {
+            if self.body != usize::MAX {
+                part[self.body] = self.acc;
+            }
+            (self.body, self.acc, self.anchor) = (body, part[body], anchor());
+        }
+    }
+
+    /// Stores the current body's sum into `part`.
+    #[inline(always)]
+    pub(super) fn finish(self, part: &mut [R]) {
+        if self.body != usize::MAX {
+            part[self.body] = self.acc;
+        }
     }
 }
 

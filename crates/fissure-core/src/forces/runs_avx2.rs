@@ -30,7 +30,7 @@
 use std::arch::x86_64::*;
 
 /// `_MM_SHUFFLE(z, y, x, w)`: `_mm256_shuffle_ps(a, b, ·)` takes `a[w], a[x], b[y], b[z]` in each 128-bit half.
-const fn shuf(z: i32, y: i32, x: i32, w: i32) -> i32 {
+pub(super) const fn shuf(z: i32, y: i32, x: i32, w: i32) -> i32 {
     (z << 6) | (y << 4) | (x << 2) | w
 }
 
