@@ -12,9 +12,9 @@
 //! additions (one a triangle, ~3 cycles each) stays: reordering it would change the bits.
 //!
 //! The same bits as the portable loop: each lane's maths is glam's `cross` and `dot` in their order (no fused
-//! multiply-adds), and a block of eight is taken this way only when its triangles are of one body and none reads
-//! the last particle (whose 16-byte load would pass the end of the positions); any other block, and the chunk's
-//! tail, go the portable way, triangle by triangle.
+//! multiply-adds), and a block of eight is taken this way only when the triangles whose bodies hold gas are of one
+//! body (the others add nothing to any sum) and none reads the last particle (whose 16-byte load would pass the
+//! end of the positions); any other block, and the chunk's tail, go the portable way, triangle by triangle.
 
 use std::arch::x86_64::*;
 
@@ -62,21 +62,22 @@ pub(super) unsafe fn crosses(
     let mut k = 0;
     for (t8, b8) in tris.chunks_exact(8).zip(bodies.chunks_exact(8)) {
         // SAFETY: `t8` holds 24 indices and `b8` 8 bodies.
-        let wide = n >= 2 && unsafe { fits(t8.as_ptr().cast(), b8.as_ptr(), n - 2) };
-        if !wide {
+        let wide = if n >= 2 { unsafe { fits(t8.as_ptr().cast(), b8.as_ptr(), n - 2, gas, pressure) } } else { None };
+        let Some((lanes, body)) = wide else {
             (k..k + 8).for_each(|k| one(k, &mut sum, cross, part));
             k += 8;
             continue;
-        }
-        let body = b8[0] as usize;
-        let gassy = pressure && gas[body] > 0.0;
+        };
+        let gassy = lanes != 0;
         if gassy {
-            sum.switch(body, part, || at(anchors[body]));
+            sum.switch(body as usize, part, || at(anchors[body as usize]));
         }
         // SAFETY: every index is below `n - 1` (tested above), so each 16-byte load stays in `q`; the block's
         // crosses are `cross[4k .. 4k + 32]`, inside `cross` (its length asserted above).
-        let dots = unsafe { block(q.as_ptr(), t8, sum.anchor, cross.as_mut_ptr().add(4 * k), gassy) };
+        let dots = unsafe { block(q.as_ptr(), t8, sum.anchor, cross.as_mut_ptr().add(4 * k), lanes) };
         if gassy {
+            // In the triangles' order; the lanes without gas hold `-0`, which adds nothing (`x + -0 = x` for
+            // every `x`, `-0` and NaN included): no branch a lane.
             for d in dots {
                 sum.acc += d;
             }
@@ -87,16 +88,19 @@ pub(super) unsafe fn crosses(
     sum.finish(part);
 }
 
-/// Whether a block of eight triangles (`t`: 24 corner indices, `b`: their 8 bodies) can go the wide way: every
-/// corner index at most `last` and every body the first's (three unsigned comparisons and one equality test on
-/// eight lanes, instead of 32 scalar tests a block).
+/// Whether a block of eight triangles (`t`: 24 corner indices, `b`: their 8 bodies) can go the wide way, and if
+/// so its lanes that add to a gas volume (bit `l` for lane `l`) and their body: every corner index at most `last`,
+/// every body one of `gas`'s, and (with `pressure`) every lane whose body holds gas of one body. Lanes of bodies
+/// without gas add nothing, in the portable loop as here: a split ball's core blocks (no gas) leave 41 % of its
+/// blocks with two bodies, which all went the portable way while every body had to be the same.
 ///
 /// # Safety
 /// AVX2; `t` holds 24 values and `b` 8.
 #[target_feature(enable = "avx2")]
 #[inline]
-unsafe fn fits(t: *const u32, b: *const u32, last: usize) -> bool {
+unsafe fn fits(t: *const u32, b: *const u32, last: usize, gas: &[f32], pressure: bool) -> Option<(u32, u32)> {
     let lim = _mm256_set1_epi32(u32::try_from(last).unwrap_or(u32::MAX) as i32);
+    let nb = _mm256_set1_epi32(u32::try_from(gas.len().checked_sub(1)?).unwrap_or(u32::MAX) as i32);
     // SAFETY: the caller's bounds.
     let (t0, t1, t2, b) = unsafe {
         (
@@ -106,26 +110,48 @@ unsafe fn fits(t: *const u32, b: *const u32, last: usize) -> bool {
             _mm256_loadu_si256(b.cast()),
         )
     };
-    // `x <= last` as `max(x, last) == last` (unsigned; a macro, not a closure: see `block`).
+    // `x <= lim` as `max(x, lim) == lim` (unsigned; a macro, not a closure: see `block`).
     macro_rules! below {
-        ($x:expr) => {
-            _mm256_cmpeq_epi32(_mm256_max_epu32($x, lim), lim)
+        ($x:expr, $lim:expr) => {
+            _mm256_cmpeq_epi32(_mm256_max_epu32($x, $lim), $lim)
         };
     }
-    let same = _mm256_cmpeq_epi32(b, _mm256_set1_epi32(_mm256_extract_epi32::<0>(b)));
-    let ok = _mm256_and_si256(_mm256_and_si256(below!(t0), below!(t1)), _mm256_and_si256(below!(t2), same));
-    _mm256_movemask_epi8(ok) == -1
+    let ok = _mm256_and_si256(
+        _mm256_and_si256(below!(t0, lim), below!(t1, lim)),
+        _mm256_and_si256(below!(t2, lim), below!(b, nb)),
+    );
+    if _mm256_movemask_epi8(ok) != -1 {
+        return None;
+    }
+    if !pressure {
+        return Some((0, 0));
+    }
+    // One body (the usual block): its gas decides, without the gather.
+    let b0 = _mm256_cvtsi256_si32(b) as u32;
+    if _mm256_movemask_epi8(_mm256_cmpeq_epi32(b, _mm256_set1_epi32(b0 as i32))) == -1 {
+        return Some((if gas[b0 as usize] > 0.0 { 0xff } else { 0 }, b0));
+    }
+    // SAFETY: every body is below `gas.len()` (tested just above).
+    let g = unsafe { _mm256_i32gather_ps::<4>(gas.as_ptr(), b) };
+    let lanes = _mm256_movemask_ps(_mm256_cmp_ps::<_CMP_GT_OQ>(g, _mm256_setzero_ps())) as u32;
+    if lanes == 0 {
+        return Some((0, 0));
+    }
+    let first = _mm256_permutevar8x32_epi32(b, _mm256_set1_epi32(lanes.trailing_zeros() as i32));
+    let same = _mm256_movemask_ps(_mm256_castsi256_ps(_mm256_cmpeq_epi32(b, first))) as u32;
+    (lanes & !same == 0).then(|| (lanes, _mm256_cvtsi256_si32(first) as u32))
 }
 
-/// Eight triangles of one body: their crosses stored at `out` (32 values), their volume terms returned (when
-/// `gassy`; else zeros). Written without closures or `map`: those are compiled without the caller's AVX2, and
-/// their intrinsics become calls (`super::runs_avx2`).
+/// Eight triangles: their crosses stored at `out` (32 values), their volume terms about `anchor` returned in the
+/// lanes set in `lanes` (bit `l` for lane `l`) and `-0` in the others (all zeros when `lanes` is 0). Written
+/// without closures or `map`: those are compiled without the caller's AVX2, and their intrinsics become calls
+/// (`super::runs_avx2`).
 ///
 /// # Safety
 /// AVX2; each corner index `i` has `3i + 4 <= q`'s length, and `out` holds 32 values.
 #[target_feature(enable = "avx2")]
 #[inline]
-unsafe fn block(q: *const f32, t: &[[u32; 3]], anchor: Vec3, out: *mut f32, gassy: bool) -> [f32; 8] {
+unsafe fn block(q: *const f32, t: &[[u32; 3]], anchor: Vec3, out: *mut f32, lanes: u32) -> [f32; 8] {
     // Corner `$c` of the eight triangles as three registers of components, lane `l` triangle `l`.
     macro_rules! corner {
         ($c:expr) => {{
@@ -178,12 +204,15 @@ unsafe fn block(q: *const f32, t: &[[u32; 3]], anchor: Vec3, out: *mut f32, gass
         _mm_storeu_ps(out.add(28), _mm256_extractf128_ps::<1>(o3));
     }
     let mut dots = [0.0f32; 8];
-    if gassy {
+    if lanes != 0 {
         // glam's `dot` of `x0 − anchor` and the cross: (dx cx + dy cy) + dz cz.
         let dx = _mm256_sub_ps(x0, _mm256_set1_ps(anchor.x));
         let dy = _mm256_sub_ps(y0, _mm256_set1_ps(anchor.y));
         let dz = _mm256_sub_ps(z0, _mm256_set1_ps(anchor.z));
         let s = _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(dx, cx), _mm256_mul_ps(dy, cy)), _mm256_mul_ps(dz, cz));
+        let bit = _mm256_setr_epi32(1, 2, 4, 8, 16, 32, 64, 128);
+        let keep = _mm256_cmpeq_epi32(_mm256_and_si256(_mm256_set1_epi32(lanes as i32), bit), bit);
+        let s = _mm256_blendv_ps(_mm256_set1_ps(-0.0), s, _mm256_castsi256_ps(keep));
         // SAFETY: `dots` holds 8 values.
         unsafe { _mm256_storeu_ps(dots.as_mut_ptr(), s) };
     }
@@ -223,8 +252,8 @@ mod tests {
         (cross, part)
     }
 
-    /// Every block kind (one body, two bodies, a body without gas, a corner on the last particle) and every tail
-    /// length 0–7 give the portable loop's bits.
+    /// Every block kind (one body, a body with gas beside bodies without, two bodies with gas, a body without gas,
+    /// a corner on the last particle) and every tail length 0–7 give the portable loop's bits.
     #[test]
     fn crosses_match_the_portable_loop() {
         if !std::arch::is_x86_feature_detected!("avx2") {
@@ -245,18 +274,16 @@ mod tests {
             let tris: Vec<[u32; 3]> = (0..len)
                 .map(|k| if k == 9 { [n - 1, 3, 4] } else { [0; 3].map(|_| (next() % n as u64) as u32) })
                 .collect();
-            // Runs of one body, a block with two, a body without gas.
+            // Runs of one body, a block of a body with gas and one without, a body without gas, the two
+            // interleaved, a block of two bodies with gas (the portable way), then back to a body seen before.
             let bodies: Vec<u32> = (0..len)
-                .map(|k| {
-                    if k < 24 {
-                        0
-                    } else if k < 29 {
-                        2
-                    } else if k < 40 {
-                        1
-                    } else {
-                        2
-                    }
+                .map(|k| match k {
+                    0..24 => 0,
+                    24..29 => 2,
+                    29..40 => 1,
+                    40..48 => [2, 1, 2, 1, 1, 2, 1, 1][k - 40],
+                    48..56 => [2, 2, 0, 0, 2, 1, 0, 2][k - 48],
+                    _ => 2,
                 })
                 .collect();
             let (want_cross, want_part) = portable(&q, &tris, &bodies, &gas, &anchors);
