@@ -278,6 +278,16 @@ pub(crate) fn as_f32_mut<R: Real>(x: &mut [R]) -> &mut [f32] {
 /// `f32` (the caller checks; otherwise it panics).
 #[cfg(target_arch = "x86_64")]
 #[inline(always)]
+pub(crate) fn va_as_f32<R: Real>(x: &[R::VA]) -> &[f32] {
+    assert_eq!(std::any::TypeId::of::<R>(), std::any::TypeId::of::<f32>());
+    const { assert!(std::mem::size_of::<Vec3A>() == 16) };
+    // SAFETY: `R` is `f32` (asserted), so `R::VA` is `Vec3A`: 16 bytes of four `f32`s (size checked above).
+    unsafe { std::slice::from_raw_parts(x.as_ptr().cast::<f32>(), 4 * x.len()) }
+}
+
+/// [`va_as_f32`], mutable.
+#[cfg(target_arch = "x86_64")]
+#[inline(always)]
 pub(crate) fn va_as_f32_mut<R: Real>(x: &mut [R::VA]) -> &mut [f32] {
     assert_eq!(std::any::TypeId::of::<R>(), std::any::TypeId::of::<f32>());
     const { assert!(std::mem::size_of::<Vec3A>() == 16) };

@@ -1,5 +1,6 @@
 //! The surface pass's crosses and gas volume terms ([`super::cross_chunk`]) in `f32` on AVX2, eight triangles at
-//! a time, written with its intrinsics.
+//! a time, written with its intrinsics; and the same for the edges of the caps over a gas body's openings
+//! ([`cap_edges`]).
 //!
 //! Each corner's eight positions are read as 16-byte loads (the 3-vector and one value past it, unused) and split
 //! into components with seven shuffles (Intel's AoS-to-SoA transposition: each 128-bit half holds four of the
@@ -154,27 +155,10 @@ unsafe fn fits(t: *const u32, b: *const u32, last: usize, gas: &[f32], pressure:
 unsafe fn block(q: *const f32, t: &[[u32; 3]], anchor: Vec3, out: *mut f32, lanes: u32) -> [f32; 8] {
     // Corner `$c` of the eight triangles as three registers of components, lane `l` triangle `l`.
     macro_rules! corner {
-        ($c:expr) => {{
+        ($c:expr) => {
             // SAFETY: the caller's bounds.
-            macro_rules! pair {
-                ($l:expr) => {
-                    unsafe {
-                        _mm256_insertf128_ps::<1>(
-                            _mm256_castps128_ps256(_mm_loadu_ps(q.add(3 * t[$l][$c] as usize))),
-                            _mm_loadu_ps(q.add(3 * t[$l + 4][$c] as usize)),
-                        )
-                    }
-                };
-            }
-            let (r0, r1, r2, r3) = (pair!(0), pair!(1), pair!(2), pair!(3));
-            let (t0, t1) = (_mm256_unpacklo_ps(r0, r1), _mm256_unpackhi_ps(r0, r1));
-            let (t2, t3) = (_mm256_unpacklo_ps(r2, r3), _mm256_unpackhi_ps(r2, r3));
-            (
-                _mm256_shuffle_ps::<{ shuf(1, 0, 1, 0) }>(t0, t2),
-                _mm256_shuffle_ps::<{ shuf(3, 2, 3, 2) }>(t0, t2),
-                _mm256_shuffle_ps::<{ shuf(1, 0, 1, 0) }>(t1, t3),
-            )
-        }};
+            unsafe { soa8(q, [0, 1, 2, 3, 4, 5, 6, 7].map(|l| 3 * t[l][$c] as usize)) }
+        };
     }
     let (x0, y0, z0) = corner!(0);
     let (x1, y1, z1) = corner!(1);
@@ -185,24 +169,8 @@ unsafe fn block(q: *const f32, t: &[[u32; 3]], anchor: Vec3, out: *mut f32, lane
     let cx = _mm256_sub_ps(_mm256_mul_ps(ay, bz), _mm256_mul_ps(by, az));
     let cy = _mm256_sub_ps(_mm256_mul_ps(az, bx), _mm256_mul_ps(bz, ax));
     let cz = _mm256_sub_ps(_mm256_mul_ps(ax, by), _mm256_mul_ps(bx, ay));
-    // Back to `x, y, z, z` per triangle: register `l` holds triangle `l` in its low half, `l + 4` in its high.
-    let (u0, u1) = (_mm256_unpacklo_ps(cx, cy), _mm256_unpackhi_ps(cx, cy));
-    let (v0, v1) = (_mm256_unpacklo_ps(cz, cz), _mm256_unpackhi_ps(cz, cz));
-    let o0 = _mm256_shuffle_ps::<{ shuf(1, 0, 1, 0) }>(u0, v0);
-    let o1 = _mm256_shuffle_ps::<{ shuf(3, 2, 3, 2) }>(u0, v0);
-    let o2 = _mm256_shuffle_ps::<{ shuf(1, 0, 1, 0) }>(u1, v1);
-    let o3 = _mm256_shuffle_ps::<{ shuf(3, 2, 3, 2) }>(u1, v1);
     // SAFETY: `out` holds 32 values (the caller's bounds).
-    unsafe {
-        _mm_storeu_ps(out, _mm256_castps256_ps128(o0));
-        _mm_storeu_ps(out.add(4), _mm256_castps256_ps128(o1));
-        _mm_storeu_ps(out.add(8), _mm256_castps256_ps128(o2));
-        _mm_storeu_ps(out.add(12), _mm256_castps256_ps128(o3));
-        _mm_storeu_ps(out.add(16), _mm256_extractf128_ps::<1>(o0));
-        _mm_storeu_ps(out.add(20), _mm256_extractf128_ps::<1>(o1));
-        _mm_storeu_ps(out.add(24), _mm256_extractf128_ps::<1>(o2));
-        _mm_storeu_ps(out.add(28), _mm256_extractf128_ps::<1>(o3));
-    }
+    unsafe { store_xyzz(out, cx, cy, cz) };
     let mut dots = [0.0f32; 8];
     if lanes != 0 {
         // glam's `dot` of `x0 − anchor` and the cross: (dx cx + dy cy) + dz cz.
@@ -217,6 +185,137 @@ unsafe fn block(q: *const f32, t: &[[u32; 3]], anchor: Vec3, out: *mut f32, lane
         unsafe { _mm256_storeu_ps(dots.as_mut_ptr(), s) };
     }
     dots
+}
+
+/// Eight 3-vectors at `base + off[l]` (`f32` offsets) as three registers of components, lane `l` the vector at
+/// `off[l]`: each read as a 16-byte load (the vector and one value past it, unused) and split with seven shuffles
+/// (Intel's AoS-to-SoA transposition: each 128-bit half holds four of the eight).
+///
+/// # Safety
+/// AVX2; `base + off[l] .. + 4` readable for every lane.
+#[target_feature(enable = "avx2")]
+#[inline]
+unsafe fn soa8(base: *const f32, off: [usize; 8]) -> (__m256, __m256, __m256) {
+    // (A macro, not a closure: see `block`.)
+    macro_rules! pair {
+        ($l:expr) => {
+            // SAFETY: the caller's bounds.
+            unsafe {
+                _mm256_insertf128_ps::<1>(
+                    _mm256_castps128_ps256(_mm_loadu_ps(base.add(off[$l]))),
+                    _mm_loadu_ps(base.add(off[$l + 4])),
+                )
+            }
+        };
+    }
+    let (r0, r1, r2, r3) = (pair!(0), pair!(1), pair!(2), pair!(3));
+    let (t0, t1) = (_mm256_unpacklo_ps(r0, r1), _mm256_unpackhi_ps(r0, r1));
+    let (t2, t3) = (_mm256_unpacklo_ps(r2, r3), _mm256_unpackhi_ps(r2, r3));
+    (
+        _mm256_shuffle_ps::<{ shuf(1, 0, 1, 0) }>(t0, t2),
+        _mm256_shuffle_ps::<{ shuf(3, 2, 3, 2) }>(t0, t2),
+        _mm256_shuffle_ps::<{ shuf(1, 0, 1, 0) }>(t1, t3),
+    )
+}
+
+/// Eight 3-vectors given as components (lane `l` vector `l`) stored at `out` as `x, y, z, z` each (glam's
+/// [`glam::Vec3A`] layout, 32 values), joined with six shuffles.
+///
+/// # Safety
+/// AVX2; `out` holds 32 values.
+#[target_feature(enable = "avx2")]
+#[inline]
+unsafe fn store_xyzz(out: *mut f32, cx: __m256, cy: __m256, cz: __m256) {
+    // Register `l` holds vector `l` in its low half, `l + 4` in its high.
+    let (u0, u1) = (_mm256_unpacklo_ps(cx, cy), _mm256_unpackhi_ps(cx, cy));
+    let (v0, v1) = (_mm256_unpacklo_ps(cz, cz), _mm256_unpackhi_ps(cz, cz));
+    let o0 = _mm256_shuffle_ps::<{ shuf(1, 0, 1, 0) }>(u0, v0);
+    let o1 = _mm256_shuffle_ps::<{ shuf(3, 2, 3, 2) }>(u0, v0);
+    let o2 = _mm256_shuffle_ps::<{ shuf(1, 0, 1, 0) }>(u1, v1);
+    let o3 = _mm256_shuffle_ps::<{ shuf(3, 2, 3, 2) }>(u1, v1);
+    // SAFETY: the caller's bounds.
+    unsafe {
+        _mm_storeu_ps(out, _mm256_castps256_ps128(o0));
+        _mm_storeu_ps(out.add(4), _mm256_castps256_ps128(o1));
+        _mm_storeu_ps(out.add(8), _mm256_castps256_ps128(o2));
+        _mm_storeu_ps(out.add(12), _mm256_castps256_ps128(o3));
+        _mm_storeu_ps(out.add(16), _mm256_extractf128_ps::<1>(o0));
+        _mm_storeu_ps(out.add(20), _mm256_extractf128_ps::<1>(o1));
+        _mm_storeu_ps(out.add(24), _mm256_extractf128_ps::<1>(o2));
+        _mm_storeu_ps(out.add(28), _mm256_extractf128_ps::<1>(o3));
+    }
+}
+
+/// glam's `cross` of `a` and `b` on eight lanes: `(ay bz − by az, az bx − bz ax, ax by − bx ay)`.
+#[target_feature(enable = "avx2")]
+#[inline]
+fn cross8(a: (__m256, __m256, __m256), b: (__m256, __m256, __m256)) -> (__m256, __m256, __m256) {
+    let ((ax, ay, az), (bx, by, bz)) = (a, b);
+    (
+        _mm256_sub_ps(_mm256_mul_ps(ay, bz), _mm256_mul_ps(by, az)),
+        _mm256_sub_ps(_mm256_mul_ps(az, bx), _mm256_mul_ps(bz, ax)),
+        _mm256_sub_ps(_mm256_mul_ps(ax, by), _mm256_mul_ps(bx, ay)),
+    )
+}
+
+/// `a − b` on eight lanes of 3-vectors.
+#[target_feature(enable = "avx2")]
+#[inline]
+fn sub8(a: (__m256, __m256, __m256), b: (__m256, __m256, __m256)) -> (__m256, __m256, __m256) {
+    (_mm256_sub_ps(a.0, b.0), _mm256_sub_ps(a.1, b.1), _mm256_sub_ps(a.2, b.2))
+}
+
+/// glam's `dot` on eight lanes: `(ax bx + ay by) + az bz`.
+#[target_feature(enable = "avx2")]
+#[inline]
+fn dot8(a: (__m256, __m256, __m256), b: (__m256, __m256, __m256)) -> __m256 {
+    _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(a.0, b.0), _mm256_mul_ps(a.1, b.1)), _mm256_mul_ps(a.2, b.2))
+}
+
+/// The caps' loop edges (`pressure::CapPieces::run_once`), eight at a time across loops: edge `k` from particle
+/// `rim[k]` to `next[k]` on loop `loop_of[k]`, whose centroid `c` and anchor `a` are `spots[8 l ..]` and
+/// `spots[8 l + 4 ..]` (padded 3-vectors); its volume term `(xj − a) · ((xi − a) × (c − a))` into `terms[k]` and
+/// its gradient `((xi − xj) × (c − xj)) / 6` into `e[4 k ..]` (padded), each lane glam's maths in its order (the
+/// same bits as the portable loop). Returns how many edges it formed: the blocks of eight from the first, up to
+/// the first block with an end on the last particle (whose 16-byte load would pass the end of the positions); the
+/// caller forms the rest.
+///
+/// # Safety
+/// The CPU has AVX2 (the bounds are checked here).
+#[target_feature(enable = "avx2")]
+pub(super) unsafe fn cap_edges(
+    q: &[f32],
+    (rim, next, loop_of): (&[u32], &[u32], &[u32]),
+    spots: &[f32],
+    terms: &mut [f32],
+    e: &mut [f32],
+) -> usize {
+    let (n, ne, nl) = (q.len() / 3, rim.len(), spots.len() / 8);
+    assert!(next.len() == ne && loop_of.len() == ne && terms.len() == ne && e.len() == 4 * ne);
+    assert!(q.len() == 3 * n && spots.len() == 8 * nl);
+    let sixth = _mm256_set1_ps((1.0f64 / 6.0) as f32);
+    let mut k = 0;
+    while k + 8 <= ne {
+        let (ri, nj, lo) = (&rim[k..k + 8], &next[k..k + 8], &loop_of[k..k + 8]);
+        if n < 2 || ri.iter().chain(nj).any(|&i| i as usize > n - 2) || lo.iter().any(|&l| l as usize >= nl) {
+            break;
+        }
+        // SAFETY: every particle index is below `n - 1` and every loop below `nl` (tested above), so each 16-byte
+        // load stays in `q` or `spots`; `terms[k..k + 8]` and `e[4k..4k + 32]` are in bounds (`k + 8 <= ne`).
+        unsafe {
+            let xi = soa8(q.as_ptr(), [0, 1, 2, 3, 4, 5, 6, 7].map(|l| 3 * ri[l] as usize));
+            let xj = soa8(q.as_ptr(), [0, 1, 2, 3, 4, 5, 6, 7].map(|l| 3 * nj[l] as usize));
+            let c = soa8(spots.as_ptr(), [0, 1, 2, 3, 4, 5, 6, 7].map(|l| 8 * lo[l] as usize));
+            let a = soa8(spots.as_ptr(), [0, 1, 2, 3, 4, 5, 6, 7].map(|l| 8 * lo[l] as usize + 4));
+            let t = dot8(sub8(xj, a), cross8(sub8(xi, a), sub8(c, a)));
+            _mm256_storeu_ps(terms.as_mut_ptr().add(k), t);
+            let (gx, gy, gz) = cross8(sub8(xi, xj), sub8(c, xj));
+            let (gx, gy, gz) = (_mm256_mul_ps(gx, sixth), _mm256_mul_ps(gy, sixth), _mm256_mul_ps(gz, sixth));
+            store_xyzz(e.as_mut_ptr().add(4 * k), gx, gy, gz);
+        }
+        k += 8;
+    }
+    k
 }
 
 #[cfg(test)]
@@ -293,6 +392,54 @@ mod tests {
             let bits = |v: &[f32]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
             assert_eq!(bits(&cross), bits(&want_cross), "crosses, {len} triangles");
             assert_eq!(bits(&part), bits(&want_part), "volume partials, {len} triangles");
+        }
+    }
+    /// The caps' edges eight at a time give glam's bits, edge by edge, for every count of edges 0–27 (blocks and
+    /// the tail the caller forms), and stop at the first block with an end on the last particle.
+    #[test]
+    fn cap_edges_match_glam() {
+        if !std::arch::is_x86_feature_detected!("avx2") {
+            return;
+        }
+        let n = 61u32;
+        let mut seed = 0x9e37_79b9_7f4a_7c15u64;
+        let mut next = move || {
+            seed ^= seed << 13;
+            seed ^= seed >> 7;
+            seed ^= seed << 17;
+            seed
+        };
+        let mut coord = || (next() % 20_000) as f32 * 1e-4 - 1.0;
+        let q: Vec<Vec3> = (0..n).map(|_| Vec3::new(coord(), coord(), coord())).collect();
+        let loops = 5;
+        let spots: Vec<f32> = (0..8 * loops).map(|k| if k % 4 == 3 { 0.0 } else { coord() }).collect();
+        let spot = |l: u32, s: usize| Vec3::from_slice(&spots[8 * l as usize + 4 * s..]);
+        for ne in 0..28usize {
+            for last_at in [None, Some(11)] {
+                let mut pick = |k: usize| if Some(k) == last_at { n - 1 } else { (next() % (n as u64 - 1)) as u32 };
+                let rim: Vec<u32> = (0..ne).map(&mut pick).collect();
+                let ends: Vec<u32> = (0..ne).map(|k| rim[(k + 1) % ne]).collect();
+                let loop_of: Vec<u32> = (0..ne).map(|k| (k * loops / ne.max(1)) as u32).collect();
+                let (mut terms, mut e) = (vec![f32::NAN; ne], vec![f32::NAN; 4 * ne]);
+                // SAFETY: AVX2, tested above.
+                let done =
+                    unsafe { super::cap_edges(f32::flat(&q), (&rim, &ends, &loop_of), &spots, &mut terms, &mut e) };
+                let blocks = ne / 8 * 8;
+                let want_done = match last_at {
+                    Some(k) if k < blocks => k / 8 * 8,
+                    _ => blocks,
+                };
+                assert_eq!(done, want_done, "{ne} edges, last particle at {last_at:?}");
+                for k in 0..done {
+                    let (xi, xj) = (q[rim[k] as usize], q[ends[k] as usize]);
+                    let (c, a) = (spot(loop_of[k], 0), spot(loop_of[k], 1));
+                    let t = (xj - a).dot((xi - a).cross(c - a));
+                    let g = (xi - xj).cross(c - xj) * (1.0f64 / 6.0) as f32;
+                    assert_eq!(terms[k].to_bits(), t.to_bits(), "term of edge {k} of {ne}");
+                    let got = Vec3::from_slice(&e[4 * k..]);
+                    assert_eq!(got.to_array().map(f32::to_bits), g.to_array().map(f32::to_bits), "edge {k} of {ne}");
+                }
+            }
         }
     }
 }
