@@ -323,6 +323,16 @@ mod tests {
     use crate::real::Real;
     use glam::{Vec3, Vec3A};
 
+    /// Marsaglia's xorshift generator from `seed` (not 0): the tests' positions and indices.
+    fn xorshift(mut seed: u64) -> impl FnMut() -> u64 {
+        move || {
+            seed ^= seed << 13;
+            seed ^= seed >> 7;
+            seed ^= seed << 17;
+            seed
+        }
+    }
+
     /// The portable loop (`super::super::cross_chunk`'s), written out over plain slices.
     fn portable(q: &[Vec3], tris: &[[u32; 3]], bodies: &[u32], gas: &[f32], anchors: &[u32]) -> (Vec<f32>, Vec<f32>) {
         let (mut cross, mut part) = (Vec::new(), vec![0.0f32; gas.len()]);
@@ -359,13 +369,7 @@ mod tests {
             return;
         }
         let n = 97u32;
-        let mut seed = 0x2545_f491_4f6c_dd1du64;
-        let mut next = move || {
-            seed ^= seed << 13;
-            seed ^= seed >> 7;
-            seed ^= seed << 17;
-            seed
-        };
+        let mut next = xorshift(0x2545_f491_4f6c_dd1d);
         let q: Vec<Vec3> =
             (0..n).map(|_| Vec3::from_array([0; 3].map(|_| (next() % 20_000) as f32 * 1e-4 - 1.0))).collect();
         let (gas, anchors) = (vec![2.0f32, 0.0, 1.5], vec![5u32, 17, 40]);
@@ -394,6 +398,7 @@ mod tests {
             assert_eq!(bits(&part), bits(&want_part), "volume partials, {len} triangles");
         }
     }
+
     /// The caps' edges eight at a time give glam's bits, edge by edge, for every count of edges 0–27 (blocks and
     /// the tail the caller forms), and stop at the first block with an end on the last particle.
     #[test]
@@ -402,13 +407,7 @@ mod tests {
             return;
         }
         let n = 61u32;
-        let mut seed = 0x9e37_79b9_7f4a_7c15u64;
-        let mut next = move || {
-            seed ^= seed << 13;
-            seed ^= seed >> 7;
-            seed ^= seed << 17;
-            seed
-        };
+        let mut next = xorshift(0x9e37_79b9_7f4a_7c15);
         let mut coord = || (next() % 20_000) as f32 * 1e-4 - 1.0;
         let q: Vec<Vec3> = (0..n).map(|_| Vec3::new(coord(), coord(), coord())).collect();
         let loops = 5;
