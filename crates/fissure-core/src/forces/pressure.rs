@@ -228,15 +228,19 @@ impl<'a, R: Real> CapPieces<'a, R> {
             spot[1] = q[m.body_anchor[b as usize] as usize].into();
         }
         let spots = &*spots;
-        let mut from = 0;
+        // The edges formed eight at a time (`f32` on AVX2), then the rest one by one.
         #[cfg(target_arch = "x86_64")]
-        if std::any::TypeId::of::<R>() == std::any::TypeId::of::<f32>() && crate::isa::avx2() {
+        let from = if std::any::TypeId::of::<R>() == std::any::TypeId::of::<f32>() && crate::isa::avx2() {
             use crate::real::{as_f32, as_f32_mut, va_as_f32, va_as_f32_mut};
             let (q, spots) = (as_f32(R::flat(q)), va_as_f32::<R>(spots));
             let edges = (self.rim, self.next, self.loop_of);
             // SAFETY: the CPU has AVX2 (tested just above).
-            from = unsafe { super::cross_avx2::cap_edges(q, edges, spots, as_f32_mut(terms), va_as_f32_mut::<R>(e)) };
-        }
+            unsafe { super::cross_avx2::cap_edges(q, edges, spots, as_f32_mut(terms), va_as_f32_mut::<R>(e)) }
+        } else {
+            0
+        };
+        #[cfg(not(target_arch = "x86_64"))]
+        let from = 0;
         for k in from..self.rim.len() {
             let l = self.loop_of[k] as usize;
             let (centre, anchor): (R::V, R::V) = (spots[2 * l].into(), spots[2 * l + 1].into());
