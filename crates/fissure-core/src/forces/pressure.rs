@@ -67,8 +67,9 @@ pub(crate) struct Caps<R: Real> {
     /// No particle is on two loops, nor twice on one: each entry of `g` at a loop's particle is then formed in
     /// registers and written once, from the edges' gradients formed first (see [`CapPieces::run`]).
     pub once: bool,
-    /// Each loop edge's end (`rim[k]`'s next particle on its loop) and loop (an index into `loops`).
+    /// Each loop edge's end: `rim[k]`'s next particle on its loop.
     pub next: Vec<u32>,
+    /// Each loop edge's loop (an index into `loops`).
     pub loop_of: Vec<u32>,
     /// Formed each evaluation where `once`: each loop edge's `∂(6V)/∂x / 6` (`rim.len()` of them), then each
     /// loop's centroid and its body's anchor position (two a loop).
@@ -106,7 +107,7 @@ impl<R: Real> Caps<R> {
         self.loop_of.clear();
         for (l, &[_, start, end]) in self.loops.iter().enumerate() {
             let rim = &self.rim[start as usize..end as usize];
-            self.next.extend(rim.iter().skip(1).chain(&rim[..1]));
+            self.next.extend(rim.iter().skip(1).chain(rim.first()));
             self.loop_of.extend(std::iter::repeat_n(l as u32, rim.len()));
         }
         self.work.resize(if self.once { self.rim.len() + 2 * self.loops.len() } else { 0 }, R::VA::default());

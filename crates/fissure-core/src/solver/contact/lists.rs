@@ -216,7 +216,7 @@ impl<R: Real> ContactScratch<R> {
         // side of a search: a pair if allowed and closer than `radius`. (That `v` shares no origin with a corner
         // is tested in the searches' index tests, inside the grid's loop, before this visit: a triangle's own
         // corners are in its box, and a vertex's own triangles around it. On the folding 128² cloth an edge's
-        // search visited 13.3 edges past the box test, of which 5.9 were its neighbours: `cargo bench --bench
+        // search visited 13.3 edges past the box test, of which at least 5.9 were its neighbours: `cargo bench --bench
         // contact`, one thread, the Zen 4 development VM, 2026-11-29, five alternated runs, contact 6.87 → 6.62 ms
         // a substep, medians; the same pairs.)
         let normal = |c: [DVec3; 3]| (c[1] - c[0]).cross(c[2] - c[0]);
