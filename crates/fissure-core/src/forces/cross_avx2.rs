@@ -160,24 +160,16 @@ unsafe fn block(q: *const f32, t: &[[u32; 3]], anchor: Vec3, out: *mut f32, lane
             unsafe { soa8(q, [0, 1, 2, 3, 4, 5, 6, 7].map(|l| 3 * t[l][$c] as usize)) }
         };
     }
-    let (x0, y0, z0) = corner!(0);
-    let (x1, y1, z1) = corner!(1);
-    let (x2, y2, z2) = corner!(2);
-    let (ax, ay, az) = (_mm256_sub_ps(x1, x0), _mm256_sub_ps(y1, y0), _mm256_sub_ps(z1, z0));
-    let (bx, by, bz) = (_mm256_sub_ps(x2, x0), _mm256_sub_ps(y2, y0), _mm256_sub_ps(z2, z0));
-    // glam's `cross` of a = x1 − x0 and b = x2 − x0: (ay bz − by az, az bx − bz ax, ax by − bx ay).
-    let cx = _mm256_sub_ps(_mm256_mul_ps(ay, bz), _mm256_mul_ps(by, az));
-    let cy = _mm256_sub_ps(_mm256_mul_ps(az, bx), _mm256_mul_ps(bz, ax));
-    let cz = _mm256_sub_ps(_mm256_mul_ps(ax, by), _mm256_mul_ps(bx, ay));
+    let (p0, p1, p2) = (corner!(0), corner!(1), corner!(2));
+    // glam's `cross` of `x1 − x0` and `x2 − x0`.
+    let c = cross8(sub8(p1, p0), sub8(p2, p0));
     // SAFETY: `out` holds 32 values (the caller's bounds).
-    unsafe { store_xyzz(out, cx, cy, cz) };
+    unsafe { store_xyzz(out, c.0, c.1, c.2) };
     let mut dots = [0.0f32; 8];
     if lanes != 0 {
-        // glam's `dot` of `x0 − anchor` and the cross: (dx cx + dy cy) + dz cz.
-        let dx = _mm256_sub_ps(x0, _mm256_set1_ps(anchor.x));
-        let dy = _mm256_sub_ps(y0, _mm256_set1_ps(anchor.y));
-        let dz = _mm256_sub_ps(z0, _mm256_set1_ps(anchor.z));
-        let s = _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(dx, cx), _mm256_mul_ps(dy, cy)), _mm256_mul_ps(dz, cz));
+        // glam's `dot` of `x0 − anchor` and the cross.
+        let a = (_mm256_set1_ps(anchor.x), _mm256_set1_ps(anchor.y), _mm256_set1_ps(anchor.z));
+        let s = dot8(sub8(p0, a), c);
         let bit = _mm256_setr_epi32(1, 2, 4, 8, 16, 32, 64, 128);
         let keep = _mm256_cmpeq_epi32(_mm256_and_si256(_mm256_set1_epi32(lanes as i32), bit), bit);
         let s = _mm256_blendv_ps(_mm256_set1_ps(-0.0), s, _mm256_castsi256_ps(keep));
@@ -272,7 +264,7 @@ fn dot8(a: (__m256, __m256, __m256), b: (__m256, __m256, __m256)) -> __m256 {
     _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(a.0, b.0), _mm256_mul_ps(a.1, b.1)), _mm256_mul_ps(a.2, b.2))
 }
 
-/// The caps' loop edges (`pressure::CapPieces::run_once`), eight at a time across loops: edge `k` from particle
+/// The caps' loop edges (`pressure::CapPieces::edges`), eight at a time across loops: edge `k` from particle
 /// `rim[k]` to `next[k]` on loop `loop_of[k]`, whose centroid `c` and anchor `a` are `spots[8 l ..]` and
 /// `spots[8 l + 4 ..]` (padded 3-vectors); its volume term `(xj − a) · ((xi − a) × (c − a))` into `terms[k]` and
 /// its gradient `((xi − xj) × (c − xj)) / 6` into `e[4 k ..]` (padded), each lane glam's maths in its order (the

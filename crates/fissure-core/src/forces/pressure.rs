@@ -65,14 +65,14 @@ pub(crate) struct Caps<R: Real> {
     /// Each loop edge's term of its body's `6 V` (the edge from `rim[k]` to the loop's next particle).
     pub terms: Vec<R>,
     /// No particle is on two loops, nor twice on one: each entry of `g` at a loop's particle is then formed in
-    /// registers and written once, from the edges' gradients formed first (see [`CapPieces::run`]).
+    /// registers and written once from the edges' gradients (see [`CapPieces::run`]).
     pub once: bool,
     /// Each loop edge's end: `rim[k]`'s next particle on its loop.
     pub next: Vec<u32>,
     /// Each loop edge's loop (an index into `loops`).
     pub loop_of: Vec<u32>,
-    /// Formed each evaluation where `once`: each loop edge's `∂(6V)/∂x / 6` (`rim.len()` of them), then each
-    /// loop's centroid and its body's anchor position (two a loop).
+    /// Formed each evaluation: each loop edge's `∂(6V)/∂x / 6` (`rim.len()` of them), then each loop's centroid
+    /// and its body's anchor position (two a loop).
     pub work: Vec<R::VA>,
 }
 
@@ -110,7 +110,7 @@ impl<R: Real> Caps<R> {
             self.next.extend(rim.iter().skip(1).chain(rim.first()));
             self.loop_of.extend(std::iter::repeat_n(l as u32, rim.len()));
         }
-        self.work.resize(if self.once { self.rim.len() + 2 * self.loops.len() } else { 0 }, R::VA::default());
+        self.work.resize(self.rim.len() + 2 * self.loops.len(), R::VA::default());
         self.terms.resize(self.rim.len(), R::ZERO);
     }
 }
@@ -175,50 +175,40 @@ impl<'a, R: Real> CapPieces<'a, R> {
     pub(crate) unsafe fn run(&self, m: &Model<R>, q: &[R::V]) {
         // SAFETY: one piece each, taken once (the caller's contract).
         let (g, terms) = unsafe { (self.g.get(0), self.terms.get(0)) };
+        // SAFETY: as for `g` and `terms`.
+        let e = self.edges(m, q, terms, unsafe { self.work.get(0) });
         if self.once {
-            // SAFETY: as for `g` and `terms`.
-            return self.run_once(m, q, g, terms, unsafe { self.work.get(0) });
+            return self.assemble_once(m, g, e);
         }
+        // A particle on two loops (or twice on one): its entry summed in `g` edge by edge, loop by loop.
         for &i in self.touched {
             g[i as usize] = R::V::ZERO;
         }
-        let sixth = R::from_f64(1.0 / 6.0);
         for &[b, start, end] in self.loops {
-            let b = b as usize;
-            if m.body_gas_amount[b] <= R::ZERO {
+            if m.body_gas_amount[b as usize] <= R::ZERO {
                 continue;
             }
-            let (rim, terms) = (&self.rim[start as usize..end as usize], &mut terms[start as usize..end as usize]);
-            let anchor = q[m.body_anchor[b] as usize];
-            let inv_n = R::ONE / R::from_f64(rim.len() as f64);
-            let centre = rim.iter().fold(R::V::ZERO, |acc, &i| acc + q[i as usize]) * inv_n;
+            let (rim, next) = (&self.rim[start as usize..end as usize], &self.next[start as usize..end as usize]);
             let mut centre_g = R::V::ZERO;
-            // The loop's edges `i -> j` in order, the last closing onto the first (no `% n` per edge).
-            for (k, (&i, t)) in rim.iter().zip(terms.iter_mut()).enumerate() {
-                let j = if k + 1 < rim.len() { rim[k + 1] } else { rim[0] };
-                let (xi, xj) = (q[i as usize], q[j as usize]);
-                *t = (xj - anchor).dot((xi - anchor).cross(centre - anchor));
-                let e = (xi - xj).cross(centre - xj) * sixth;
+            for ((&i, &j), &e) in rim.iter().zip(next).zip(&e[start as usize..end as usize]) {
+                let e: R::V = e.into();
                 g[i as usize] += e;
                 g[j as usize] += e;
                 centre_g += e;
             }
-            let share = centre_g * inv_n;
+            let share = centre_g * (R::ONE / R::from_f64(rim.len() as f64));
             for &i in rim {
                 g[i as usize] += share;
             }
         }
     }
 
-    /// [`Self::run`] where no particle is on two loops or twice on one ([`Caps::once`]), in three passes: each
-    /// loop's centroid and anchor; each loop edge's volume term and gradient `e` (in `f32` on AVX2 eight edges at a
-    /// time, across loops: `cross_avx2::cap_edges`); then particle `rim[k]`'s entry `((0 + e[k - 1]) + e[k]) +
-    /// share` (`rim[0]`'s `((0 + e[0]) + e[n - 1]) + share`), the sums [`Self::run`] forms in `g` edge by edge,
-    /// here formed in registers and written once (no pass zeroing `g` first). The same bits. On the 2,562-vertex
-    /// ball after 100 core splits (100 openings, ~600 loop edges), one thread, the Zen 4 development VM,
-    /// 2026-11-29 (`perf`): the caps 4.0 → 2.8 µs a step, the surface stage 16.8–17.0 → 15.0–15.2 µs. (Writing
-    /// each entry once alone, with the edges formed one by one, measured no change: the maths is the cost.)
-    fn run_once(&self, m: &Model<R>, q: &[R::V], g: &mut [R::V], terms: &mut [R], work: &mut [R::VA]) {
+    /// Each loop edge's volume term into `terms` and its gradient `e = ((xi − xj) × (c − xj)) / 6` into the
+    /// returned slice of `work` (after each loop's centroid `c` and anchor, formed first): in `f32` on AVX2 eight
+    /// edges at a time, across loops (`cross_avx2::cap_edges`, the same bits), the rest one by one. On the
+    /// 2,562-vertex ball after 100 core splits (100 openings, ~600 loop edges), one thread, the Zen 4 development
+    /// VM, 2026-11-29 (`perf`): the caps 4.0 → 2.8 µs a step, the surface stage 16.8–17.0 → 15.0–15.2 µs.
+    fn edges<'w>(&self, m: &Model<R>, q: &[R::V], terms: &mut [R], work: &'w mut [R::VA]) -> &'w [R::VA] {
         let sixth = R::from_f64(1.0 / 6.0);
         let (e, spots) = work.split_at_mut(self.rim.len());
         for (&[b, start, end], spot) in self.loops.iter().zip(spots.chunks_exact_mut(2)) {
@@ -249,6 +239,14 @@ impl<'a, R: Real> CapPieces<'a, R> {
             terms[k] = (xj - anchor).dot((xi - anchor).cross(centre - anchor));
             e[k] = ((xi - xj).cross(centre - xj) * sixth).into();
         }
+        e
+    }
+
+    /// Where no particle is on two loops or twice on one ([`Caps::once`]): particle `rim[k]`'s entry
+    /// `((0 + e[k - 1]) + e[k]) + share` (`rim[0]`'s `((0 + e[0]) + e[n - 1]) + share`), the sums the general
+    /// path forms in `g` edge by edge, here formed in registers and written once (no pass zeroing `g` first):
+    /// the same bits. (Alone, with the edges formed one by one, this measured no change: the maths is the cost.)
+    fn assemble_once(&self, m: &Model<R>, g: &mut [R::V], e: &[R::VA]) {
         for &[b, start, end] in self.loops {
             let (rim, e) = (&self.rim[start as usize..end as usize], &e[start as usize..end as usize]);
             if m.body_gas_amount[b as usize] <= R::ZERO {
