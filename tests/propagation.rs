@@ -88,7 +88,7 @@ proptest! {
     fn punctured_balls_leak_and_crack_keeping_every_invariant(
         pressure in 2000.0f64..4000.0,
         fraction in 0.6f64..1.1,
-        puncture in 12usize..162, // the first 12 have valence 5: a core block needs an even one-ring
+        puncture in 12usize..162, // where the search below starts (it passes over a vertex that cannot break out)
     ) {
         let r = 0.25;
         let mut b = ModelBuilder::new();

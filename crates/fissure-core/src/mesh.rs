@@ -256,6 +256,14 @@ impl Mesh {
 
     /// Icosphere of `radius` \[m\]: an icosahedron subdivided `subdivisions` times, vertices projected onto the
     /// sphere. `10·4^s + 2` vertices, `20·4^s` triangles (s = 4: 2,562 vertices; s = 6: 40,962).
+    ///
+    /// Numbered for locality ([`Mesh::renumbered_for_locality`]: reverse Cuthill–McKee, the triangles in their
+    /// corners' order), not in the order subdivision makes them (the icosahedron's twelve vertices first, then
+    /// each level's edge midpoints), where a vertex's neighbours lie across the whole numbering: on two threads
+    /// each core then gathers forces the other core wrote. The icosahedron's twelve vertices are the ones with
+    /// five neighbours. Measured with `cargo bench --bench ball` and `fissure bench --only terms` (two threads,
+    /// the Zen 4 development VM, 2026-11-29): the 2,562-vertex pressurised ball 53 → 45 µs a step, the
+    /// 10,242-vertex ball 145 → 111 µs without gas and 200 → 160 µs with it (`benches/RESULTS.md`, issue 15).
     pub fn icosphere(radius: f64, subdivisions: u32) -> Mesh {
         let t = (1.0 + 5f64.sqrt()) / 2.0;
         let mut pos: Vec<DVec3> = [
@@ -312,7 +320,8 @@ impl Mesh {
             }
             tris = next;
         }
-        Mesh { positions: pos.into_iter().map(|p| p * radius).collect(), triangles: tris }
+        let subdivided = Mesh { positions: pos.into_iter().map(|p| p * radius).collect(), triangles: tris };
+        subdivided.renumbered_for_locality().0
     }
 
     /// A rectangular cloth grid of `nx × ny` vertices with `spacing` \[m\], in the XY plane (z = 0), x to the right,

@@ -278,8 +278,10 @@ fn a_punctured_balloon_leaks_and_shrinks_unless_sealed() {
         }
         let gas0 = m.body_gas_amount[0];
         let v0 = m.body_volumes(&s)[0];
-        // Punctures at the icosahedron's twelve vertices, far apart.
-        for v in 0..12 {
+        // Punctures at the icosahedron's twelve vertices (the ones with five springs), far apart.
+        let corners: Vec<usize> = (0..m.particle_count()).filter(|&i| m.particle_springs.row(i).len() == 5).collect();
+        assert_eq!(corners.len(), 12);
+        for v in corners {
             assert!(!f.break_core(&mut m, &mut s, v).events.is_empty());
         }
         assert_eq!(m.openings.len(), 12);
@@ -649,7 +651,9 @@ fn sparse_strains_find_what_every_strain_finds() {
         assert!(may);
         assert!(spans.windows(2).all(|w| w[0][1] <= w[1][0]), "spans in order, disjoint");
         let stored: usize = spans.iter().map(|[a, b]| (b - a) as usize).sum();
-        assert!(stored < full.len() / 4, "grid {grid}: {stored} of {} strains stored", full.len());
+        // A span of the kernel stores all its strains when one is near the limit: on the ball, whose ~0.5 % of
+        // springs near it lie spread over its (locality-ordered) numbering, ~27 % are stored.
+        assert!(stored < full.len() / 3, "grid {grid}: {stored} of {} strains stored", full.len());
         let inside = |k: usize| spans.iter().any(|&[a, b]| (a as usize..b as usize).contains(&k));
         let mut passed = 0;
         for (k, &e) in full.iter().enumerate() {

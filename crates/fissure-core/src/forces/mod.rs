@@ -64,6 +64,8 @@ pub(crate) struct ForceScratch<R: Real> {
     pub body_pressure: Vec<R>,
     /// The caps over the openings of gas bodies (see [`pressure::Caps`]).
     pub caps: pressure::Caps<R>,
+    /// The order the team takes [`ForceScratch::springs_and_crosses`]'s pieces in (scratch, rebuilt each call).
+    pub fused_order: Vec<u32>,
     /// Whether the spring pass measures the fracture trigger's inputs (see [`crate::fracture::Measures`]): a
     /// model that can break, on the per-spring kernel.
     pub measuring: bool,

@@ -33,14 +33,16 @@ impl<R: Real> ForceScratch<R> {
     }
 
     /// [`ForceScratch::springs`] (per-spring kernel) and the surface pass's crosses and volume partials
-    /// (`forces::cross_chunk`) in one hand-over to the team: the triangle chunks first, which the caller takes
-    /// (it claims from the front), the spring pieces after them, which helpers start on from the end. A
-    /// 642-vertex ball's 1,280 triangles are one chunk of the volume sum, so its surface pass ran on one thread
-    /// while the other waited; now the other thread runs springs meanwhile. The crosses stay on the caller's
-    /// core, as before, for the gather that reads them (the other order, a helper forming them, made the gather
-    /// slower by as much as it saved: `benches/RESULTS.md`, 25). The same pieces and chunks as the two passes
-    /// apart: the same bits. The caps over a gas body's openings are one more piece. [`ForceScratch::surface`] is
-    /// then told to skip them (`crosses_formed`).
+    /// (`forces::cross_chunk`) in one hand-over to the team. The triangle chunks and the spring pieces are taken
+    /// in the order of where they start in their arrays ([`region_order`]): the caller claims from the front and
+    /// a helper from the end, so on a mesh numbered for locality (springs and triangles follow the particles:
+    /// `Mesh::renumbered_for_locality`, which `Mesh::icosphere` applies) each core forms the crosses and spring
+    /// forces of the particles whose gather it then takes, and the gather reads what its own core wrote. (Before,
+    /// every triangle chunk came first, all on the caller's core; on a mesh without locality either way half of
+    /// the gather's reads fall on the other core's lines.) A 642-vertex ball's 1,280 triangles are one chunk of the
+    /// volume sum: the other thread runs springs meanwhile. The same pieces and chunks as the two passes apart:
+    /// the same bits. The caps over a gas body's openings are one more piece, last (a helper takes it first).
+    /// [`ForceScratch::surface`] is then told to skip them (`crosses_formed`).
     pub fn springs_and_crosses(&mut self, m: &Model<R>, q: &[R::V], qd: &[R::V]) {
         match m.damping_model {
             DampingModel::Projected => self.springs_and_crosses_with::<true>(m, q, qd),
@@ -51,17 +53,22 @@ impl<R: Real> ForceScratch<R> {
     fn springs_and_crosses_with<const PROJECTED: bool>(&mut self, m: &Model<R>, q: &[R::V], qd: &[R::V]) {
         let (nb, size) = (m.body_count(), par::piece(par::CHUNK));
         let rows = m.tri_count().div_ceil(par::CHUNK).max(1);
+        let mut order = std::mem::take(&mut self.fused_order);
+        region_order(&mut order, m.tri_count(), par::CHUNK, m.spring_count(), size);
         let ps = par::Pieces::new(&mut self.spring_f, size);
         let pc = par::Pieces::new(&mut self.tri_cross, par::CHUNK);
         let pv = par::Pieces::new(&mut self.vol_partials[..rows * nb], nb);
         let (nc, np) = (pc.count(), ps.count());
+        debug_assert_eq!(order.len(), nc + np);
         let caps = super::pressure::CapPieces::new(&mut self.caps);
-        // SAFETY (both): `exec` runs each piece index once; triangle chunks, spring pieces and the caps (last: a
-        // helper takes it first) are numbered apart.
+        let ord = &order;
+        // SAFETY (both): `exec` runs each piece index once and `order` is a permutation of `0 .. nc + np`;
+        // triangle chunks, spring pieces and the caps (`nc + np`) are numbered apart.
         if caps.count() == 0 {
             // Without caps a closure of two kinds of piece: with a third branch in it the ball's pass (10,242
             // vertices, no openings) took 5 µs more a step (harness `terms`, 2026-11-25).
             par::exec(false, nc + np, &|k| unsafe {
+                let k = *ord.get_unchecked(k) as usize;
                 if k < nc {
                     super::cross_chunk(m, q, true, k * par::CHUNK, pc.get(k), pv.get(k))
                 } else {
@@ -71,6 +78,7 @@ impl<R: Real> ForceScratch<R> {
             });
         } else {
             par::exec(false, nc + np + 1, &|k| unsafe {
+                let k = if k < nc + np { *ord.get_unchecked(k) as usize } else { k };
                 if k < nc {
                     super::cross_chunk(m, q, true, k * par::CHUNK, pc.get(k), pv.get(k))
                 } else if k < nc + np {
@@ -81,6 +89,7 @@ impl<R: Real> ForceScratch<R> {
                 }
             });
         }
+        self.fused_order = order;
     }
 
     /// [`ForceScratch::springs`] that also measures the fracture trigger's inputs: each spring's strain into
@@ -115,6 +124,27 @@ impl<R: Real> ForceScratch<R> {
         }
         self.strain_spans = sink.finish();
         self.strain_sparse = over.is_some();
+    }
+}
+
+/// The pieces of two passes run as one: `nt` triangles in chunks of `chunk` (numbered `0 .. nc`) and `ns` springs in
+/// pieces of `size` (numbered `nc ..`), merged by where each starts as a fraction of its array (a triangle chunk
+/// first on a tie), into `order`. On a mesh numbered for locality a fraction of the triangles and the same
+/// fraction of the springs touch about the same particles.
+fn region_order(order: &mut Vec<u32>, nt: usize, chunk: usize, ns: usize, size: usize) {
+    let (nc, np) = (nt.div_ceil(chunk), ns.div_ceil(size));
+    order.clear();
+    let (mut c, mut p) = (0, 0);
+    while c < nc || p < np {
+        // `c chunk / nt <= p size / ns`, cross-multiplied (exact in u128).
+        let tri_first = p == np || (c < nc && (c * chunk) as u128 * ns as u128 <= (p * size) as u128 * nt as u128);
+        if tri_first {
+            order.push(c as u32);
+            c += 1;
+        } else {
+            order.push((nc + p) as u32);
+            p += 1;
+        }
     }
 }
 
@@ -534,5 +564,38 @@ impl<'a, R: Real> StrainSink<'a, R> {
         for ((o, &l), &r) in out.iter_mut().zip(len).zip(rest) {
             *o = strain(l, r);
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::region_order;
+
+    /// The merged order is a permutation of the pieces, each kind in its own order, and every piece follows the
+    /// pieces of the other kind that start before it (as fractions of their arrays).
+    #[test]
+    fn region_order_merges_the_two_passes_by_where_their_pieces_start() {
+        let mut order = Vec::new();
+        for (nt, chunk, ns, size) in [(1280, 2048, 1920, 256), (5120, 2048, 7680, 256), (20480, 2048, 30720, 256)]
+            .into_iter()
+            .chain([(0, 2048, 100, 256), (100, 2048, 0, 256), (7, 3, 5, 2)])
+        {
+            region_order(&mut order, nt, chunk, ns, size);
+            let (nc, np) = (nt.div_ceil(chunk), ns.div_ceil(size));
+            let mut seen = order.clone();
+            seen.sort_unstable();
+            assert_eq!(seen, (0..(nc + np) as u32).collect::<Vec<_>>(), "{nt} {ns}: a permutation");
+            let start = |k: u32| {
+                let k = k as usize;
+                if k < nc { (k * chunk) as f64 / nt as f64 } else { ((k - nc) * size) as f64 / ns as f64 }
+            };
+            assert!(order.windows(2).all(|w| start(w[0]) <= start(w[1])), "{nt} {ns}: by start: {order:?}");
+            let tris: Vec<u32> = order.iter().copied().filter(|&k| (k as usize) < nc).collect();
+            assert_eq!(tris, (0..nc as u32).collect::<Vec<_>>());
+        }
+        // The 2,562-vertex ball's three triangle chunks lead their regions' spring pieces.
+        region_order(&mut order, 5120, 2048, 7680, 256);
+        assert_eq!(&order[..2], &[0, 3]);
+        assert_eq!(order.iter().position(|&k| k == 1), Some(1 + 12));
     }
 }
