@@ -187,7 +187,7 @@ unsafe fn block(q: *const f32, t: &[[u32; 3]], anchor: Vec3, out: *mut f32, lane
 /// AVX2; `base + off[l] .. + 4` readable for every lane.
 #[target_feature(enable = "avx2")]
 #[inline]
-unsafe fn soa8(base: *const f32, off: [usize; 8]) -> (__m256, __m256, __m256) {
+pub(super) unsafe fn soa8(base: *const f32, off: [usize; 8]) -> (__m256, __m256, __m256) {
     // (A macro, not a closure: see `block`.)
     macro_rules! pair {
         ($l:expr) => {
@@ -253,14 +253,14 @@ fn cross8(a: (__m256, __m256, __m256), b: (__m256, __m256, __m256)) -> (__m256, 
 /// `a − b` on eight lanes of 3-vectors.
 #[target_feature(enable = "avx2")]
 #[inline]
-fn sub8(a: (__m256, __m256, __m256), b: (__m256, __m256, __m256)) -> (__m256, __m256, __m256) {
+pub(super) fn sub8(a: (__m256, __m256, __m256), b: (__m256, __m256, __m256)) -> (__m256, __m256, __m256) {
     (_mm256_sub_ps(a.0, b.0), _mm256_sub_ps(a.1, b.1), _mm256_sub_ps(a.2, b.2))
 }
 
 /// glam's `dot` on eight lanes: `(ax bx + ay by) + az bz`.
 #[target_feature(enable = "avx2")]
 #[inline]
-fn dot8(a: (__m256, __m256, __m256), b: (__m256, __m256, __m256)) -> __m256 {
+pub(super) fn dot8(a: (__m256, __m256, __m256), b: (__m256, __m256, __m256)) -> __m256 {
     _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(a.0, b.0), _mm256_mul_ps(a.1, b.1)), _mm256_mul_ps(a.2, b.2))
 }
 

@@ -18,6 +18,8 @@ mod runs_avx512;
 #[cfg(all(test, target_arch = "x86_64"))]
 mod span_check;
 pub mod spring;
+#[cfg(target_arch = "x86_64")]
+mod spring_avx2;
 pub mod wind;
 pub(crate) mod wind_grid;
 

@@ -271,6 +271,9 @@ fn spring_chunk_dispatch<R: Real, const PROJECTED: bool, const MEASURE: bool>(
 ) {
     #[cfg(target_arch = "x86_64")]
     {
+        if !MEASURE && std::any::TypeId::of::<R>() == std::any::TypeId::of::<f32>() && crate::isa::avx2() {
+            return forces_avx2::<R, PROJECTED>(m, q, qd, start, out);
+        }
         if crate::isa::avx2() {
             // SAFETY: the CPU supports AVX2, checked just above.
             unsafe { spring_chunk_avx2::<R, PROJECTED, MEASURE>(m, q, qd, start, out, strain, els) };
@@ -278,6 +281,34 @@ fn spring_chunk_dispatch<R: Real, const PROJECTED: bool, const MEASURE: bool>(
         }
     }
     spring_chunk::<R, PROJECTED, MEASURE>(m, q, qd, start, out, strain, els)
+}
+
+/// The forces of springs `start .. start + out.len()` in `f32` on AVX2: eight at a time by hand
+/// (`super::spring_avx2`, the same bits), a block the kernel leaves (an end on the last particle) and the tail
+/// the portable way. On the 2,562-vertex ball (one thread, the Zen 4 development VM, 2026-11-29) the spring
+/// stage went 23.0–25.3 → 17.7–18.6 µs a step (`benches/RESULTS.md`, issue 15).
+#[cfg(target_arch = "x86_64")]
+fn forces_avx2<R: Real, const PROJECTED: bool>(m: &Model<R>, q: &[R::V], qd: &[R::V], start: usize, out: &mut [R::V]) {
+    use crate::real::{as_f32, as_f32_mut};
+    let end = start + out.len();
+    let (idx, rest) = (&m.spring_indices[start..end], as_f32(&m.spring_rest_length[start..end]));
+    let (ks, kd) = (as_f32(&m.spring_stiffness[start..end]), as_f32(&m.spring_damping[start..end]));
+    let (xs, vs) = (as_f32(R::flat(q)), as_f32(R::flat(qd)));
+    let mut k = 0;
+    while k < out.len() {
+        let o = as_f32_mut(R::flat_mut(&mut out[k..]));
+        // SAFETY: the CPU has AVX2 (the caller's test).
+        k += unsafe {
+            super::spring_avx2::springs::<PROJECTED>((xs, vs), &idx[k..], (&rest[k..], &ks[k..], &kd[k..]), o)
+        };
+        // The block it stopped at (or the tail), the portable way.
+        let n = (out.len() - k).min(8);
+        if n > 0 {
+            // SAFETY: the CPU supports AVX2 (the caller's test).
+            unsafe { spring_chunk_avx2::<R, PROJECTED, false>(m, q, qd, start + k, &mut out[k..k + n], None, &mut []) };
+            k += n;
+        }
+    }
 }
 
 #[cfg(target_arch = "x86_64")]

@@ -1,0 +1,222 @@
+//! The per-spring kernel of irregular meshes (`spring::spring_chunk`, the forces alone) in `f32` on AVX2, eight
+//! springs at a time, written with its intrinsics.
+//!
+//! Why by hand: the portable span code reads each spring's four 3-vectors (its ends' positions and velocities)
+//! one component at a time into per-component arrays, runs the force maths over the arrays (vectorised), and
+//! writes each force back from them: ~40 scalar loads and stores a spring around ~20 vector instructions of
+//! maths, ~3 ns a spring on the 2,562-vertex ball (one thread, the Zen 4 development VM, 2026-11-29). Here each
+//! 3-vector is one 16-byte load, the eight of a block are split into components with seven shuffles
+//! (`cross_avx2::soa8`), and the eight forces are joined back with six and stored as eight overlapping 16-byte
+//! stores (`store_xyz8`).
+//!
+//! The same bits as the portable code: each lane's maths is [`super::spring::force_parts`]'s, in its order, with
+//! no fused multiply-adds (`sqrt` and division are correctly rounded in both). A block whose springs read the
+//! last particle (whose 16-byte load would pass the end of the positions) goes the portable way.
+
+use std::arch::x86_64::*;
+
+use super::cross_avx2::{dot8, soa8, sub8};
+use super::runs_avx2::shuf;
+
+/// Springs `idx` (end indices) with their rest lengths, stiffnesses and damping coefficients, at positions `q`
+/// and velocities `qd` (3-vectors as flat components, `3n` values each): the force on each spring's end 0 into
+/// `out` (3 values a spring), eight springs at a time from the first. Returns how many springs it formed: up to
+/// the first block of eight with an end on the last particle, or the last whole block; the caller forms the
+/// rest (and may call again past a block it formed itself).
+///
+/// # Safety
+/// The CPU has AVX2 (the lengths and indices are checked here).
+#[target_feature(enable = "avx2")]
+pub(super) unsafe fn springs<const PROJECTED: bool>(
+    (q, qd): (&[f32], &[f32]),
+    idx: &[[u32; 2]],
+    (rest, ks, kd): (&[f32], &[f32], &[f32]),
+    out: &mut [f32],
+) -> usize {
+    let ns = idx.len();
+    assert!(q.len() == qd.len() && q.len().is_multiple_of(3));
+    assert!(rest.len() == ns && ks.len() == ns && kd.len() == ns && out.len() == 3 * ns);
+    let n = q.len() / 3;
+    if n < 2 {
+        return 0;
+    }
+    // Every end of a wide block at most `n - 2`, so that `3 i + 4 <= 3 n`.
+    let lim = _mm256_set1_epi32((n - 2).min(i32::MAX as usize) as i32);
+    let mut k = 0;
+    while k + 8 <= ns {
+        // SAFETY: `idx[k .. k + 8]` holds 16 indices (`k + 8 <= ns`).
+        let (e0, e1) = unsafe {
+            let p = idx.as_ptr().add(k).cast::<__m256i>();
+            (_mm256_loadu_si256(p), _mm256_loadu_si256(p.add(1)))
+        };
+        // `x <= lim` as `max(x, lim) == lim` (unsigned).
+        let ok = _mm256_and_si256(
+            _mm256_cmpeq_epi32(_mm256_max_epu32(e0, lim), lim),
+            _mm256_cmpeq_epi32(_mm256_max_epu32(e1, lim), lim),
+        );
+        if _mm256_movemask_epi8(ok) != -1 {
+            break;
+        }
+        let b = &idx[k..k + 8];
+        let oi = [0, 1, 2, 3, 4, 5, 6, 7].map(|l| 3 * b[l][0] as usize);
+        let oj = [0, 1, 2, 3, 4, 5, 6, 7].map(|l| 3 * b[l][1] as usize);
+        // SAFETY: every end is at most `n - 2` (tested above): each 16-byte load stays in `q` and `qd`.
+        let (xi, xj, vi, vj) =
+            unsafe { (soa8(q.as_ptr(), oi), soa8(q.as_ptr(), oj), soa8(qd.as_ptr(), oi), soa8(qd.as_ptr(), oj)) };
+        // SAFETY: `k + 8 <= ns`, the length of each parameter array.
+        let (r, s, c) = unsafe {
+            (
+                _mm256_loadu_ps(rest.as_ptr().add(k)),
+                _mm256_loadu_ps(ks.as_ptr().add(k)),
+                _mm256_loadu_ps(kd.as_ptr().add(k)),
+            )
+        };
+        let (f0, f1, f2) = force8::<PROJECTED>(sub8(xj, xi), sub8(vj, vi), r, s, c);
+        // SAFETY: `out[3k .. 3k + 24]` is inside `out` (`3 ns` values).
+        unsafe { store_xyz8(out.as_mut_ptr().add(3 * k), f0, f1, f2) };
+        k += 8;
+    }
+    k
+}
+
+/// [`super::spring::force_parts`]'s force on eight lanes, in its order: `l2 = (dx dx + dy dy) + dz dz`, `l =
+/// sqrt(l2)`, `inv = 1 / l` where `l2 > 0` (else `+0`), `u = d inv`, `el = ks (l − L0)`; projected `u (el + kd
+/// ((wx ux + wy uy) + wz uz))`, else `u el + w kd`.
+#[target_feature(enable = "avx2")]
+#[inline]
+fn force8<const PROJECTED: bool>(
+    d: (__m256, __m256, __m256),
+    w: (__m256, __m256, __m256),
+    rest: __m256,
+    ks: __m256,
+    kd: __m256,
+) -> (__m256, __m256, __m256) {
+    let l2 = dot8(d, d);
+    let l = _mm256_sqrt_ps(l2);
+    let positive = _mm256_cmp_ps::<_CMP_GT_OQ>(l2, _mm256_setzero_ps());
+    let inv = _mm256_and_ps(_mm256_div_ps(_mm256_set1_ps(1.0), l), positive);
+    let u = (_mm256_mul_ps(d.0, inv), _mm256_mul_ps(d.1, inv), _mm256_mul_ps(d.2, inv));
+    let el = _mm256_mul_ps(ks, _mm256_sub_ps(l, rest));
+    if PROJECTED {
+        let mag = _mm256_add_ps(el, _mm256_mul_ps(kd, dot8(w, u)));
+        (_mm256_mul_ps(u.0, mag), _mm256_mul_ps(u.1, mag), _mm256_mul_ps(u.2, mag))
+    } else {
+        (
+            _mm256_add_ps(_mm256_mul_ps(u.0, el), _mm256_mul_ps(w.0, kd)),
+            _mm256_add_ps(_mm256_mul_ps(u.1, el), _mm256_mul_ps(w.1, kd)),
+            _mm256_add_ps(_mm256_mul_ps(u.2, el), _mm256_mul_ps(w.2, kd)),
+        )
+    }
+}
+
+/// Eight 3-vectors given as components (lane `l` vector `l`) stored at `out` as 24 consecutive values: each
+/// lane's `x, y, z, z` as one 16-byte store at `out + 3 l`, in lane order, so that each store's fourth value is
+/// overwritten by the next lane's `x`; the last lane's three values stored alone (nothing past `out + 24` is
+/// written: the next spring may be another thread's).
+///
+/// # Safety
+/// AVX2; `out` holds 24 values.
+#[target_feature(enable = "avx2")]
+#[inline]
+unsafe fn store_xyz8(out: *mut f32, cx: __m256, cy: __m256, cz: __m256) {
+    // Register `l` holds vector `l` in its low half, `l + 4` in its high (as `cross_avx2::store_xyzz`).
+    let (u0, u1) = (_mm256_unpacklo_ps(cx, cy), _mm256_unpackhi_ps(cx, cy));
+    let (v0, v1) = (_mm256_unpacklo_ps(cz, cz), _mm256_unpackhi_ps(cz, cz));
+    let o0 = _mm256_shuffle_ps::<{ shuf(1, 0, 1, 0) }>(u0, v0);
+    let o1 = _mm256_shuffle_ps::<{ shuf(3, 2, 3, 2) }>(u0, v0);
+    let o2 = _mm256_shuffle_ps::<{ shuf(1, 0, 1, 0) }>(u1, v1);
+    let o3 = _mm256_shuffle_ps::<{ shuf(3, 2, 3, 2) }>(u1, v1);
+    let last = _mm256_extractf128_ps::<1>(o3);
+    // SAFETY: the caller's bounds: the seven 16-byte stores end at `out + 22`, the last lane's at `out + 24`.
+    unsafe {
+        _mm_storeu_ps(out, _mm256_castps256_ps128(o0));
+        _mm_storeu_ps(out.add(3), _mm256_castps256_ps128(o1));
+        _mm_storeu_ps(out.add(6), _mm256_castps256_ps128(o2));
+        _mm_storeu_ps(out.add(9), _mm256_castps256_ps128(o3));
+        _mm_storeu_ps(out.add(12), _mm256_extractf128_ps::<1>(o0));
+        _mm_storeu_ps(out.add(15), _mm256_extractf128_ps::<1>(o1));
+        _mm_storeu_ps(out.add(18), _mm256_extractf128_ps::<1>(o2));
+        // `x, y` as one 8-byte store, then `z`.
+        _mm_storel_epi64(out.add(21).cast(), _mm_castps_si128(last));
+        _mm_store_ss(out.add(23), _mm_movehl_ps(last, last));
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::springs;
+    use crate::forces::spring::force_parts;
+
+    fn xorshift(mut seed: u64) -> impl FnMut() -> u64 {
+        move || {
+            seed ^= seed << 13;
+            seed ^= seed >> 7;
+            seed ^= seed << 17;
+            seed
+        }
+    }
+
+    /// The kernel gives the portable maths' bits for every spring it forms (coincident ends included), stops at a
+    /// block with an end on the last particle, and writes nothing past the springs it formed.
+    #[test]
+    fn eight_springs_at_a_time_give_the_portable_bits() {
+        if !crate::isa::avx2() {
+            return;
+        }
+        let mut rng = xorshift(0x9E37_79B9_7F4A_7C15);
+        let mut unit = move || (rng() >> 40) as f32 / (1u64 << 24) as f32 - 0.5;
+        let n = 50;
+        let q: Vec<f32> = (0..3 * n).map(|_| unit()).collect();
+        let qd: Vec<f32> = (0..3 * n).map(|_| 4.0 * unit()).collect();
+        let mut pick = xorshift(12345);
+        for ns in [0, 7, 8, 9, 16, 40, 41] {
+            // Ends below `n - 1`, one spring with coincident ends, then (when there are 24 springs) one with an end
+            // on the last particle in the third block.
+            let mut idx: Vec<[u32; 2]> =
+                (0..ns).map(|_| [(pick() % (n as u64 - 1)) as u32, (pick() % (n as u64 - 1)) as u32]).collect();
+            if ns > 3 {
+                idx[3] = [5, 5];
+            }
+            if ns >= 24 {
+                idx[20][1] = n as u32 - 1;
+            }
+            let rest: Vec<f32> = (0..ns).map(|_| 0.5 + unit()).collect();
+            let ks: Vec<f32> = (0..ns).map(|_| 1e3 * (1.0 + unit())).collect();
+            let kd: Vec<f32> = (0..ns).map(|_| 2.0 + unit()).collect();
+            for projected in [true, false] {
+                let mut out = vec![f32::NAN; 3 * ns];
+                // SAFETY: the CPU has AVX2 (tested above).
+                let done = unsafe {
+                    if projected {
+                        springs::<true>((&q, &qd), &idx, (&rest, &ks, &kd), &mut out)
+                    } else {
+                        springs::<false>((&q, &qd), &idx, (&rest, &ks, &kd), &mut out)
+                    }
+                };
+                let want = if ns >= 24 { 16 } else { ns / 8 * 8 };
+                assert_eq!(done, want, "{ns} springs");
+                for (k, &[i, j]) in idx.iter().enumerate() {
+                    let at = |v: &[f32], p: u32| [0, 1, 2].map(|c| v[3 * p as usize + c]);
+                    let (xi, xj, vi, vj) = (at(&q, i), at(&q, j), at(&qd, i), at(&qd, j));
+                    let d = [0, 1, 2].map(|c| xj[c] - xi[c]);
+                    let w = [0, 1, 2].map(|c| vj[c] - vi[c]);
+                    let f = if projected {
+                        force_parts::<f32, true>(d, w, rest[k], ks[k], kd[k]).0
+                    } else {
+                        force_parts::<f32, false>(d, w, rest[k], ks[k], kd[k]).0
+                    };
+                    let got = &out[3 * k..3 * k + 3];
+                    if k < done {
+                        assert_eq!(
+                            [got[0], got[1], got[2]].map(f32::to_bits),
+                            f.map(f32::to_bits),
+                            "spring {k} of {ns}, {projected}"
+                        );
+                    } else {
+                        assert!(got.iter().all(|x| x.is_nan()), "spring {k} of {ns} written past the blocks");
+                    }
+                }
+            }
+        }
+    }
+}
