@@ -2,7 +2,8 @@
 //! (the wind pass), the tearing cloth (the run kernel measuring its strains), the ball drop (the per-spring
 //! kernel), a grid cloth under symplectic Euler (the fused grid-run spring kernel and the update after it) and
 //! under implicit Euler (the solver's runs), a grid cloth dropped onto the ground and a ball (the collision pass's
-//! blocks in lanes, fused with the run kernel), each run once per set this CPU has, their final states compared
+//! blocks in lanes, fused with the run kernel), a pressurised ball with pinned particles (the update eight particles
+//! at a time), each run once per set this CPU has, their final states compared
 //! bit for bit. One test in its own binary: the cap it sets holds for the whole process.
 
 use fissure::isa::{self, Isa};
@@ -46,12 +47,30 @@ fn draped_cloth() -> Vec<u32> {
     bits(&world)
 }
 
+/// A pressurised ball on the ground with three particles pinned (their inverse masses set to 0), symplectic
+/// Euler with projected damping: the per-spring kernel and the update eight particles at a time with its gas push
+/// and pinned lanes (`forces::gather_avx2`), the ball's 642 particles in 80 whole blocks and a tail of two.
+fn pinned_ball() -> Vec<u32> {
+    let mut b = ModelBuilder::new();
+    let opts = SoftBodyOptions { gas: Gas::Pressure(2000.0), ..Default::default() };
+    let ball = Mesh::icosphere(0.2, 3).translated(fissure::glam::DVec3::new(0.0, 0.25, 0.0));
+    b.add_soft_body(&ball, &opts).expect("ball builds");
+    b.add_collider(Collider::ground(0.0)).expect("ground");
+    let mut model: Model<f32> = b.finalize().expect("ball finalizes");
+    for i in [0, 100, 641] {
+        model.particle_inv_mass[i] = 0.0;
+    }
+    let mut world = World::new(model, SolverConfig::with(Integrator::SymplecticEuler));
+    world.advance(0.05, 1e-4).expect("ball runs");
+    bits(&world)
+}
+
 #[test]
 fn every_instruction_set_gives_the_same_bits() {
     let sets = isa::available();
     assert_eq!(sets[0], Isa::Baseline);
     type Run = (&'static str, fn() -> Vec<u32>);
-    let runs: [Run; 6] = [
+    let runs: [Run; 7] = [
         ("cloth_wind.toml", || scene("cloth_wind.toml")),
         // A breakable grid: the run kernel measures its springs' strains every step.
         ("cloth_tear.toml", || scene("cloth_tear.toml")),
@@ -59,6 +78,7 @@ fn every_instruction_set_gives_the_same_bits() {
         ("24² cloth, symplectic Euler", || grid_cloth(Integrator::SymplecticEuler, 0.1, 2e-4)),
         ("24² cloth, implicit Euler", || grid_cloth(Integrator::ImplicitEuler, 0.25, 1.0 / 60.0)),
         ("40² cloth on the ground and a ball", draped_cloth),
+        ("a pressurised ball with pinned particles", pinned_ball),
     ];
     for (name, run) in runs {
         let mut first: Option<(Isa, Vec<u32>)> = None;

@@ -9,6 +9,8 @@
 
 #[cfg(target_arch = "x86_64")]
 mod cross_avx2;
+#[cfg(target_arch = "x86_64")]
+pub(crate) mod gather_avx2;
 pub mod pressure;
 pub(crate) mod runs;
 #[cfg(target_arch = "x86_64")]
@@ -68,6 +70,10 @@ pub(crate) struct ForceScratch<R: Real> {
     pub caps: pressure::Caps<R>,
     /// The order the team takes [`ForceScratch::springs_and_crosses`]'s pieces in (scratch, rebuilt each call).
     pub fused_order: Vec<u32>,
+    /// The particles' rows blocked for the symplectic Euler update on AVX2 (`f32`, per-spring kernel: see
+    /// [`gather_avx2`]); empty otherwise.
+    #[cfg(target_arch = "x86_64")]
+    pub ell: gather_avx2::Ell,
     /// Whether the spring pass measures the fracture trigger's inputs (see [`crate::fracture::Measures`]): a
     /// model that can break, on the per-spring kernel.
     pub measuring: bool,
@@ -120,6 +126,11 @@ impl<R: Real> ForceScratch<R> {
         self.body_pressure.resize(m.body_count(), R::ZERO);
         self.vol_partials.resize(nt.div_ceil(par::CHUNK).max(1) * m.body_count(), R::ZERO);
         self.caps.plan(m);
+        #[cfg(target_arch = "x86_64")]
+        {
+            let f32_avx2 = std::any::TypeId::of::<R>() == std::any::TypeId::of::<f32>() && crate::isa::avx2();
+            self.ell = if f32_avx2 && !self.runs { gather_avx2::Ell::of_model(m) } else { Default::default() };
+        }
         // The trigger's inputs cost a write per spring and a gather per particle: only for a model that can break,
         // and the loads only for one that can break by load. The run kernel measures strains alone (each spring's
         // in the block of its end 0): a grid cloth with load limits is scanned by the fracture pass itself.

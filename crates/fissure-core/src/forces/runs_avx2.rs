@@ -196,7 +196,7 @@ impl Tail {
 /// `[4..8 | 16..20]`, `[8..12 | 20..24]`: vectors 0–3 in the low halves, 4–7 in the high, as [`split`] wants.
 /// With `mask`, only the live elements of each quarter (the others zero).
 #[inline(always)]
-unsafe fn load3(p: *const f32, mask: Option<&[__m128i; 6]>) -> [__m256; 3] {
+pub(super) unsafe fn load3(p: *const f32, mask: Option<&[__m128i; 6]>) -> [__m256; 3] {
     // SAFETY: the caller's bounds (24 floats at `p`, or the live ones); masked-off elements are not read.
     unsafe {
         let mut x = [_mm_setzero_ps(); 6];
@@ -217,7 +217,7 @@ unsafe fn load3(p: *const f32, mask: Option<&[__m128i; 6]>) -> [__m256; 3] {
 /// Stores the three registers [`join`] gives (halves as [`load3`] reads them) as 24 interleaved floats at `p`;
 /// with `mask`, only the live elements of each third.
 #[inline(always)]
-unsafe fn store3(p: *mut f32, v: [__m256; 3], mask: Option<&[__m256i; 3]>) {
+pub(super) unsafe fn store3(p: *mut f32, v: [__m256; 3], mask: Option<&[__m256i; 3]>) {
     // SAFETY: the caller's bounds (24 floats at `p`, or the live ones); masked-off elements are not written.
     unsafe {
         let thirds = [
@@ -237,7 +237,7 @@ unsafe fn store3(p: *mut f32, v: [__m256; 3], mask: Option<&[__m256i; 3]>) {
 /// Interleaved registers as [`load3`] reads them (per half: `x0 y0 z0 x1`, `y1 z1 x2 y2`, `z2 x3 y3 z3`) into one
 /// register per component (lane `e`: vector `e`).
 #[inline(always)]
-unsafe fn split([m03, m14, m25]: [__m256; 3]) -> [__m256; 3] {
+pub(super) unsafe fn split([m03, m14, m25]: [__m256; 3]) -> [__m256; 3] {
     // SAFETY: AVX (the caller's target features).
     unsafe {
         let xy = _mm256_shuffle_ps::<{ shuf(2, 1, 3, 2) }>(m14, m25); // x2 y2 x3 y3
@@ -252,7 +252,7 @@ unsafe fn split([m03, m14, m25]: [__m256; 3]) -> [__m256; 3] {
 
 /// [`split`]'s inverse.
 #[inline(always)]
-unsafe fn join([x, y, z]: [__m256; 3]) -> [__m256; 3] {
+pub(super) unsafe fn join([x, y, z]: [__m256; 3]) -> [__m256; 3] {
     // SAFETY: AVX (the caller's target features).
     unsafe {
         let rxy = _mm256_shuffle_ps::<{ shuf(2, 0, 2, 0) }>(x, y); // x0 x2 y0 y2

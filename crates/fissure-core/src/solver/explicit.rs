@@ -73,6 +73,38 @@ fn gather_work<R: Real>(m: &Model<R>, surface: bool) -> usize {
     m.particle_count() + 2 * m.spring_count() + if surface { 3 * m.tri_count() } else { 0 }
 }
 
+/// The inputs of the symplectic Euler update eight particles at a time (`forces::gather_avx2`) where it serves:
+/// `f32` on AVX2 with the per-spring kernel (its blocks built: `ForceScratch::ell`), and the surface's forces (if
+/// any) the gas's alone, without caps over openings (with wind or caps the portable gather sums them).
+#[cfg(target_arch = "x86_64")]
+fn wide_inputs<'a, R: Real>(
+    m: &'a Model<R>,
+    f: &'a crate::forces::ForceScratch<R>,
+    surface: bool,
+    dt: R,
+) -> Option<crate::forces::gather_avx2::Inputs<'a>> {
+    use crate::real::{as_f32, va_as_f32};
+    let f32 = std::any::TypeId::of::<R>() == std::any::TypeId::of::<f32>();
+    if !f32 || f.runs || !f.ell.fits(m) || (surface && (f.tri_f_written || !f.caps.g.is_empty())) {
+        return None;
+    }
+    let gas = surface && m.has_pressure();
+    if surface && !gas {
+        return None;
+    }
+    let g = m.gravity.to_vec3();
+    Some(crate::forces::gather_avx2::Inputs {
+        ell: &f.ell,
+        spring_f: as_f32(R::flat(&f.spring_f)),
+        cross: gas.then(|| (va_as_f32::<R>(&f.tri_cross), as_f32(&f.body_p6))),
+        body: &m.particle_body,
+        mass: as_f32(&m.particle_mass),
+        inv_mass: as_f32(&m.particle_inv_mass),
+        gravity: [g.x, g.y, g.z],
+        dt: as_f32(std::slice::from_ref(&dt))[0],
+    })
+}
+
 impl<R: Real> CpuSolver<R> {
     pub(super) fn symplectic_euler(&mut self, m: &Model<R>, s: &mut State<R>, dt: R, blown: &AtomicBool) {
         if self.f.runs {
@@ -89,18 +121,50 @@ impl<R: Real> CpuSolver<R> {
         let t = Instant::now();
         let f = &self.f;
         let pool = par::gather_pool(gather_work(m, surface));
+        #[cfg(target_arch = "x86_64")]
+        let wide = wide_inputs(m, f, surface, dt);
         par::chunks2_pooled(pool, par::piece(GATHER_CHUNK), &mut s.particle_q, &mut s.particle_qd, |start, qs, vs| {
             let mut bad = false;
-            for k in 0..qs.len() {
+            // Particle `start + k`, the portable way.
+            let one = |k: usize, qs: &mut [R::V], vs: &mut [R::V], bad: &mut bool| {
                 let i = start + k;
                 let w = m.particle_inv_mass[i];
                 if w == R::ZERO {
-                    continue;
+                    return;
                 }
                 vs[k] += particle_force(m, f, surface, i) * (w * dt);
                 qs[k] += vs[k] * dt;
-                bad |= !(vs[k].is_finite() && qs[k].is_finite());
-            }
+                *bad |= !(vs[k].is_finite() && qs[k].is_finite());
+            };
+            // Whole blocks of eight on AVX2 (`forces::gather_avx2`, the same bits), the others the portable way;
+            // `k`: the first particle left.
+            #[cfg(not(target_arch = "x86_64"))]
+            let k = 0;
+            #[cfg(target_arch = "x86_64")]
+            let k = match &wide {
+                None => 0,
+                Some(x) => {
+                    use crate::real::as_f32_mut;
+                    let mut k = 0;
+                    while k < qs.len() {
+                        let at = start + k;
+                        if at % 8 == 0 && k + 8 <= qs.len() && x.ell.wide(at / 8) {
+                            let q8 = as_f32_mut(R::flat_mut(&mut qs[k..k + 8])).as_mut_ptr();
+                            let v8 = as_f32_mut(R::flat_mut(&mut vs[k..k + 8])).as_mut_ptr();
+                            // SAFETY: the CPU has AVX2 and the blocks were built for this model (`wide_inputs`);
+                            // block `at / 8` is wide, and `q8`, `v8` hold its 24 values each.
+                            bad |= unsafe { crate::forces::gather_avx2::block(x, at / 8, q8, v8) };
+                            k += 8;
+                        } else {
+                            let end = (k + 8 - at % 8).min(qs.len());
+                            (k..end).for_each(|k| one(k, qs, vs, &mut bad));
+                            k = end;
+                        }
+                    }
+                    k
+                }
+            };
+            (k..qs.len()).for_each(|k| one(k, qs, vs, &mut bad));
             if bad {
                 blown.store(true, Ordering::Relaxed);
             }
