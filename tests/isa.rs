@@ -48,11 +48,13 @@ fn draped_cloth() -> Vec<u32> {
 }
 
 /// A pressurised ball on the ground with three particles pinned (their inverse masses set to 0), symplectic
-/// Euler with projected damping: the per-spring kernel and the update eight particles at a time with its gas push
+/// Euler with projected damping, breakable by strain: the per-spring kernel measuring each spring's length (the
+/// strains the fracture trigger reads: springs split) and the update eight particles at a time with its gas push
 /// and pinned lanes (`forces::gather_avx2`), the ball's 642 particles in 80 whole blocks and a tail of two.
 fn pinned_ball() -> Vec<u32> {
     let mut b = ModelBuilder::new();
-    let opts = SoftBodyOptions { gas: Gas::Pressure(2000.0), ..Default::default() };
+    let fracture = Some(Breakable { strain_limit: 0.12, ..Default::default() });
+    let opts = SoftBodyOptions { gas: Gas::Pressure(2000.0), fracture, ..Default::default() };
     let ball = Mesh::icosphere(0.2, 3).translated(fissure::glam::DVec3::new(0.0, 0.25, 0.0));
     b.add_soft_body(&ball, &opts).expect("ball builds");
     b.add_collider(Collider::ground(0.0)).expect("ground");
@@ -62,6 +64,7 @@ fn pinned_ball() -> Vec<u32> {
     }
     let mut world = World::new(model, SolverConfig::with(Integrator::SymplecticEuler));
     world.advance(0.05, 1e-4).expect("ball runs");
+    assert!(!world.events.is_empty(), "springs split");
     bits(&world)
 }
 
