@@ -40,8 +40,14 @@ pub(crate) struct Ell {
     tri_cols: Vec<(u32, u32)>,
     /// The spring entries (`Model::particle_springs`' encoding: `spring << 1 | end`), column by column.
     springs: Vec<u32>,
+    /// Each spring entry's force as an offset into the forces' `f32`s (`3 spring`; 0 for padding), read as
+    /// scalars: forming them from the entries in the vector registers and moving them out cost ~15 instructions a
+    /// column.
+    spring_at: Vec<u32>,
     /// The triangle entries, column by column.
     tris: Vec<u32>,
+    /// Each triangle entry's cross as an offset into the crosses' `f32`s (`4 triangle`; 0 for padding).
+    tri_at: Vec<u32>,
     /// Per block: whether it may go wide (no entry is the last spring).
     wide: Vec<bool>,
 }
@@ -54,7 +60,8 @@ impl Ell {
         let mut e = Ell { shape: (n, ns, nt), ..Default::default() };
         for b in 0..blocks {
             let lanes = 8 * b..8 * b + 8;
-            let mut wide = ns >= 2;
+            // (The offsets below fit in `u32`.)
+            let mut wide = ns >= 2 && 3 * ns <= u32::MAX as usize && 4 * nt <= u32::MAX as usize;
             for (rows, cols, out) in [
                 (&m.particle_springs, &mut e.spring_cols, &mut e.springs),
                 (&m.particle_tris, &mut e.tri_cols, &mut e.tris),
@@ -66,6 +73,11 @@ impl Ell {
                 }
             }
             let (s0, k) = e.spring_cols[b];
+            let springs = &e.springs[s0 as usize..(s0 + 8 * k) as usize];
+            e.spring_at.extend(springs.iter().map(|&x| if x == PAD { 0 } else { 3 * (x >> 1) }));
+            let (t0, kt) = e.tri_cols[b];
+            e.tri_at
+                .extend(e.tris[t0 as usize..(t0 + 8 * kt) as usize].iter().map(|&x| if x == PAD { 0 } else { 4 * x }));
             wide &=
                 e.springs[s0 as usize..(s0 + 8 * k) as usize].iter().all(|&x| x == PAD || (x >> 1) as usize + 1 < ns);
             wide &= e.tri_cols[b].1 == 0 || nt >= 1;
@@ -129,36 +141,34 @@ pub(crate) unsafe fn block(x: &Inputs<'_>, b: usize, q: *mut f32, v: *mut f32) -
     );
     let pad = _mm256_set1_epi32(PAD as i32);
     let neg0 = _mm256_set1_ps(-0.0);
-    // Column `k` of a block's entries: their eight 3-vectors at `base + scale · index` (`index` the entry shifted
-    // right by `shift`; index 0 for a padding entry), with the padding lanes' mask.
+    // Column `k` of a block's entries (at `$at`): their eight 3-vectors at `base + offset` (the offsets read as
+    // scalars from `$offs`), and the entries with the padding lanes' mask.
     macro_rules! column {
-        ($entries:expr, $at:expr, $shift:expr, $base:expr, $scale:expr) => {{
-            // SAFETY: `$at + 8 <= entries.len()` (the block's columns); every index the entries give is in range,
-            // and its 16-byte load inside `$base` (the block is wide: see `Ell::of_model`).
+        ($entries:expr, $offs:expr, $at:expr, $base:expr) => {{
+            // SAFETY: `$at + 8 <= entries.len() == offs.len()` (the block's columns, asserted by the caller); every
+            // offset is in range and its 16-byte load inside `$base` (the block is wide: see `Ell::of_model`).
             unsafe {
                 let c = _mm256_loadu_si256($entries.as_ptr().add($at).cast());
-                let is_pad = _mm256_cmpeq_epi32(c, pad);
-                let idx = _mm256_andnot_si256(is_pad, _mm256_srli_epi32::<$shift>(c));
-                let mut off = [0u32; 8];
-                _mm256_storeu_si256(off.as_mut_ptr().cast(), idx);
+                let is_pad = _mm256_castsi256_ps(_mm256_cmpeq_epi32(c, pad));
+                let p = $offs.as_ptr().add($at);
                 let o = [
-                    $scale * off[0] as usize,
-                    $scale * off[1] as usize,
-                    $scale * off[2] as usize,
-                    $scale * off[3] as usize,
-                    $scale * off[4] as usize,
-                    $scale * off[5] as usize,
-                    $scale * off[6] as usize,
-                    $scale * off[7] as usize,
+                    *p as usize,
+                    *p.add(1) as usize,
+                    *p.add(2) as usize,
+                    *p.add(3) as usize,
+                    *p.add(4) as usize,
+                    *p.add(5) as usize,
+                    *p.add(6) as usize,
+                    *p.add(7) as usize,
                 ];
-                (c, _mm256_castsi256_ps(is_pad), soa8($base.as_ptr(), o))
+                (c, is_pad, soa8($base.as_ptr(), o))
             }
         }};
     }
     let (s0, ks) = e.spring_cols[b];
-    assert!(x.spring_f.len() == 3 * e.shape.1 && (s0 + 8 * ks) as usize <= e.springs.len());
+    assert!(x.spring_f.len() == 3 * e.shape.1 && (s0 + 8 * ks) as usize <= e.springs.len().min(e.spring_at.len()));
     for k in 0..ks {
-        let (c, is_pad, (vx, vy, vz)) = column!(e.springs, (s0 + 8 * k) as usize, 1, x.spring_f, 3);
+        let (c, is_pad, (vx, vy, vz)) = column!(e.springs, e.spring_at, (s0 + 8 * k) as usize, x.spring_f);
         // End 1's force enters with its sign flipped; a padding entry as `-0`.
         // (Macros, not closures: a closure is compiled without this function's AVX2, its intrinsics as calls.)
         let sign = _mm256_castsi256_ps(_mm256_slli_epi32::<31>(c));
@@ -171,11 +181,11 @@ pub(crate) unsafe fn block(x: &Inputs<'_>, b: usize, q: *mut f32, v: *mut f32) -
     }
     if let Some((cross, p6)) = x.cross {
         let (t0, kt) = e.tri_cols[b];
-        assert!(cross.len() == 4 * e.shape.2 && (t0 + 8 * kt) as usize <= e.tris.len());
+        assert!(cross.len() == 4 * e.shape.2 && (t0 + 8 * kt) as usize <= e.tris.len().min(e.tri_at.len()));
         let z = _mm256_setzero_ps();
         let mut s = (z, z, z);
         for k in 0..kt {
-            let (_, is_pad, (cx, cy, cz)) = column!(e.tris, (t0 + 8 * k) as usize, 0, cross, 4);
+            let (_, is_pad, (cx, cy, cz)) = column!(e.tris, e.tri_at, (t0 + 8 * k) as usize, cross);
             macro_rules! term {
                 ($a:expr) => {
                     _mm256_blendv_ps($a, neg0, is_pad)
