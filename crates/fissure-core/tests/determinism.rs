@@ -67,8 +67,8 @@ fn one_and_two_threads_give_identical_bits() {
 
 /// The passes run inline (feature `parallel` off, as on wasm32) and on threads give the same bits: both builds
 /// must reproduce this hash of 60 symplectic Euler steps of the scene. (Changes with the physics, like the
-/// facade's state hashes: update it with the reason. Last: 2026-11-29, `Mesh::icosphere` numbered for locality,
-/// which reorders the scene's ball.)
+/// facade's state hashes: update it with the reason. Last: 2026-11-29, a gas volume summed in eight lanes
+/// (`forces::VolumeSum`); before it the same day, `Mesh::icosphere` numbered for locality.)
 #[test]
 fn inline_and_parallel_passes_give_the_recorded_bits() {
     let bits = run(2, Integrator::SymplecticEuler);
@@ -79,7 +79,7 @@ fn inline_and_parallel_passes_give_the_recorded_bits() {
     assert_eq!(hash, RECORDED, "parallel feature {}", cfg!(feature = "parallel"));
 }
 
-const RECORDED: u64 = 0xfc37_6b46_7e5b_5423;
+const RECORDED: u64 = 0xa3ec_66c0_5bd0_e6df;
 
 #[test]
 fn spring_run_kernel_matches_the_gather_kernel() {

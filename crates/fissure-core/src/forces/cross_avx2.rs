@@ -5,12 +5,13 @@
 //! Each corner's eight positions are read as 16-byte loads (the 3-vector and one value past it, unused) and split
 //! into components with seven shuffles (Intel's AoS-to-SoA transposition: each 128-bit half holds four of the
 //! eight triangles); the two edges, the cross and the volume term are formed per component, and the crosses are
-//! joined back into [`glam::Vec3A`]s (`x, y, z, z`: glam's own layout) with six shuffles. The volume terms are
-//! then added to the body's sum one after another, in the triangles' order, as the portable loop adds them.
+//! joined back into [`glam::Vec3A`]s (`x, y, z, z`: glam's own layout) with six shuffles. The block's eight volume
+//! terms are then added to the body's eight partial sums in one instruction (`super::VolumeSum`: triangle `k` to
+//! lane `k mod 8`, as the portable loop adds them).
 //!
-//! Why by hand: the portable loop is scalar (each triangle's positions come through its indices, and the volume
-//! sum is one chain that the compiler may not reorder), ~30 instructions a triangle; this is ~12. The chain of
-//! additions (one a triangle, ~3 cycles each) stays: reordering it would change the bits.
+//! Why by hand: the portable loop is scalar (each triangle's positions come through its indices), ~30
+//! instructions a triangle; this is ~12. The volume sum was one chain of additions (one a triangle, ~3 cycles
+//! each), the kernel's floor, until it went to eight lanes.
 //!
 //! The same bits as the portable loop: each lane's maths is glam's `cross` and `dot` in their order (no fused
 //! multiply-adds), and a block of eight is taken this way only when the triangles whose bodies hold gas are of one
@@ -57,7 +58,7 @@ pub(super) unsafe fn crosses(
         let body = bodies[k] as usize;
         if pressure && gas[body] > 0.0 {
             sum.switch(body, part, || at(anchors[body]));
-            sum.acc += (x0 - sum.anchor).dot(c);
+            sum.add(k, (x0 - sum.anchor).dot(c));
         }
     };
     let mut k = 0;
@@ -77,10 +78,12 @@ pub(super) unsafe fn crosses(
         // crosses are `cross[4k .. 4k + 32]`, inside `cross` (its length asserted above).
         let dots = unsafe { block(q.as_ptr(), t8, sum.anchor, cross.as_mut_ptr().add(4 * k), lanes) };
         if gassy {
-            // In the triangles' order; the lanes without gas hold `-0`, which adds nothing (`x + -0 = x` for
-            // every `x`, `-0` and NaN included): no branch a lane.
-            for d in dots {
-                sum.acc += d;
+            // Each term to its lane (`k` is a multiple of 8); the lanes without gas hold `-0`, which adds nothing
+            // (`x + -0 = x` for every `x`, `-0` and NaN included): no branch a lane.
+            // SAFETY: `lanes` holds 8 values.
+            unsafe {
+                let l = _mm256_add_ps(_mm256_loadu_ps(sum.lanes.as_ptr()), dots);
+                _mm256_storeu_ps(sum.lanes.as_mut_ptr(), l);
             }
         }
         k += 8;
@@ -144,7 +147,7 @@ unsafe fn fits(t: *const u32, b: *const u32, last: usize, gas: &[f32], pressure:
 }
 
 /// Eight triangles: their crosses stored at `out` (32 values), their volume terms about `anchor` returned in the
-/// lanes set in `lanes` (bit `l` for lane `l`) and `-0` in the others (all zeros when `lanes` is 0). Written
+/// lanes set in `lanes` (bit `l` for lane `l`) and `-0` in the others (all `-0` when `lanes` is 0). Written
 /// without closures or `map`: those are compiled without the caller's AVX2, and their intrinsics become calls
 /// (`super::runs_avx2`).
 ///
@@ -152,7 +155,7 @@ unsafe fn fits(t: *const u32, b: *const u32, last: usize, gas: &[f32], pressure:
 /// AVX2; each corner index `i` has `3i + 4 <= q`'s length, and `out` holds 32 values.
 #[target_feature(enable = "avx2")]
 #[inline]
-unsafe fn block(q: *const f32, t: &[[u32; 3]], anchor: Vec3, out: *mut f32, lanes: u32) -> [f32; 8] {
+unsafe fn block(q: *const f32, t: &[[u32; 3]], anchor: Vec3, out: *mut f32, lanes: u32) -> __m256 {
     // Corner `$c` of the eight triangles as three registers of components, lane `l` triangle `l`.
     macro_rules! corner {
         ($c:expr) => {
@@ -165,18 +168,17 @@ unsafe fn block(q: *const f32, t: &[[u32; 3]], anchor: Vec3, out: *mut f32, lane
     let c = cross8(sub8(p1, p0), sub8(p2, p0));
     // SAFETY: `out` holds 32 values (the caller's bounds).
     unsafe { store_xyzz(out, c.0, c.1, c.2) };
-    let mut dots = [0.0f32; 8];
-    if lanes != 0 {
+    if lanes == 0 {
+        return _mm256_set1_ps(-0.0);
+    }
+    {
         // glam's `dot` of `x0 − anchor` and the cross.
         let a = (_mm256_set1_ps(anchor.x), _mm256_set1_ps(anchor.y), _mm256_set1_ps(anchor.z));
         let s = dot8(sub8(p0, a), c);
         let bit = _mm256_setr_epi32(1, 2, 4, 8, 16, 32, 64, 128);
         let keep = _mm256_cmpeq_epi32(_mm256_and_si256(_mm256_set1_epi32(lanes as i32), bit), bit);
-        let s = _mm256_blendv_ps(_mm256_set1_ps(-0.0), s, _mm256_castsi256_ps(keep));
-        // SAFETY: `dots` holds 8 values.
-        unsafe { _mm256_storeu_ps(dots.as_mut_ptr(), s) };
+        _mm256_blendv_ps(_mm256_set1_ps(-0.0), s, _mm256_castsi256_ps(keep))
     }
-    dots
 }
 
 /// Eight 3-vectors at `base + off[l]` (`f32` offsets) as three registers of components, lane `l` the vector at
@@ -328,8 +330,9 @@ mod tests {
     /// The portable loop (`super::super::cross_chunk`'s), written out over plain slices.
     fn portable(q: &[Vec3], tris: &[[u32; 3]], bodies: &[u32], gas: &[f32], anchors: &[u32]) -> (Vec<f32>, Vec<f32>) {
         let (mut cross, mut part) = (Vec::new(), vec![0.0f32; gas.len()]);
-        let (mut cur, mut acc, mut anchor) = (usize::MAX, 0.0f32, Vec3::ZERO);
-        for (&[a, b, d], &body) in tris.iter().zip(bodies) {
+        let (mut cur, mut lanes, mut anchor) = (usize::MAX, [-0.0f32; 8], Vec3::ZERO);
+        let join = |l: [f32; 8]| ((l[0] + l[1]) + (l[2] + l[3])) + ((l[4] + l[5]) + (l[6] + l[7]));
+        for (k, (&[a, b, d], &body)) in tris.iter().zip(bodies).enumerate() {
             let (x0, x1, x2) = (q[a as usize], q[b as usize], q[d as usize]);
             let cr = (x1 - x0).cross(x2 - x0);
             // glam's own padded layout (`x, y, z, z`).
@@ -340,15 +343,15 @@ mod tests {
             if gas[body] > 0.0 {
                 if body != cur {
                     if cur != usize::MAX {
-                        part[cur] = acc;
+                        part[cur] += join(lanes);
                     }
-                    (cur, acc, anchor) = (body, part[body], q[anchors[body] as usize]);
+                    (cur, lanes, anchor) = (body, [-0.0; 8], q[anchors[body] as usize]);
                 }
-                acc += (x0 - anchor).dot(cr);
+                lanes[k % 8] += (x0 - anchor).dot(cr);
             }
         }
         if cur != usize::MAX {
-            part[cur] = acc;
+            part[cur] += join(lanes);
         }
         (cross, part)
     }
