@@ -1,6 +1,6 @@
 //! Every instruction set the vector kernels can run on (`fissure::isa`) gives the same bits: the cloth in wind
 //! (the wind pass), the tearing cloth (the run kernel measuring its strains), the ball drop (the per-spring
-//! kernel), a grid cloth under symplectic Euler (the fused grid-run spring kernel and the update after it) and
+//! kernel), the fracture scene (the update summing loads, the caps over openings), a grid cloth under symplectic Euler (the fused grid-run spring kernel and the update after it) and
 //! under implicit Euler (the solver's runs), a grid cloth dropped onto the ground and a ball (the collision pass's
 //! blocks in lanes, fused with the run kernel), a pressurised ball with pinned particles (the update eight particles
 //! at a time), each run once per set this CPU has, their final states compared
@@ -73,11 +73,13 @@ fn every_instruction_set_gives_the_same_bits() {
     let sets = isa::available();
     assert_eq!(sets[0], Isa::Baseline);
     type Run = (&'static str, fn() -> Vec<u32>);
-    let runs: [Run; 7] = [
+    let runs: [Run; 8] = [
         ("cloth_wind.toml", || scene("cloth_wind.toml")),
         // A breakable grid: the run kernel measures its springs' strains every step.
         ("cloth_tear.toml", || scene("cloth_tear.toml")),
         ("ball_drop.toml", || scene("ball_drop.toml")),
+        // Load limits (the update sums each particle's load) and the caps over the openings of its core splits.
+        ("fracture.toml", || scene("fracture.toml")),
         ("24² cloth, symplectic Euler", || grid_cloth(Integrator::SymplecticEuler, 0.1, 2e-4)),
         ("24² cloth, implicit Euler", || grid_cloth(Integrator::ImplicitEuler, 0.25, 1.0 / 60.0)),
         ("40² cloth on the ground and a ball", draped_cloth),

@@ -104,8 +104,14 @@ impl Ell {
 pub(crate) struct Inputs<'a> {
     pub ell: &'a Ell,
     pub spring_f: &'a [f32],
-    /// With gas (and no wind, no caps): the crosses (4 values a triangle) and each body's `P / 6`.
+    /// With gas (and no wind): the crosses (4 values a triangle) and each body's `P / 6`.
     pub cross: Option<(&'a [f32], &'a [f32])>,
+    /// With caps over openings: each particle's cap gradient (`pressure::Caps::g`, 3 values a particle) and each
+    /// body's pressure.
+    pub caps: Option<(&'a [f32], &'a [f32])>,
+    /// A measuring step with load limits: each spring's elastic pull (3 values a spring) and each particle's load
+    /// limit; the loads are summed beside the forces (`solver::explicit`'s `symplectic_euler_with_loads`).
+    pub loads: Option<(&'a [f32], &'a [f32])>,
     pub body: &'a [u32],
     pub mass: &'a [f32],
     pub inv_mass: &'a [f32],
@@ -114,13 +120,16 @@ pub(crate) struct Inputs<'a> {
 }
 
 /// Block `b` of [`Ell`] (particles `8b .. 8b + 8`): each particle's force (gravity, its springs in row order,
-/// then its gas push `P/6 Σ cross`), then `v += f (w dt)`, `x += v dt` where its inverse mass `w` is not 0. `q`
-/// and `v`: the block's 24 position and velocity values. Returns whether a value it wrote is not finite.
+/// then its gas push `P/6 Σ cross`, then its caps' `P g`), then `v += f (w dt)`, `x += v dt` where its inverse
+/// mass `w` is not 0. `q` and `v`: the block's 24 position and velocity values. With `x.loads`, each particle's
+/// load (`|Σ ± pull + P/6 Σ cross|` where its limit is finite, else 0) into `load` (8 values). Returns whether a
+/// value it wrote is not finite.
 ///
 /// # Safety
-/// AVX2; `x.ell.wide(b)`, built for the model the inputs come from ([`Ell::fits`]); `q` and `v` hold 24 values.
+/// AVX2; `x.ell.wide(b)`, built for the model the inputs come from ([`Ell::fits`]); `q` and `v` hold 24 values,
+/// and `load` 8 where `x.loads` is given.
 #[target_feature(enable = "avx2")]
-pub(crate) unsafe fn block(x: &Inputs<'_>, b: usize, q: *mut f32, v: *mut f32) -> bool {
+pub(crate) unsafe fn block(x: &Inputs<'_>, b: usize, q: *mut f32, v: *mut f32, load: *mut f32) -> bool {
     let i0 = 8 * b;
     let e = x.ell;
     debug_assert!(e.wide(b) && i0 + 8 <= x.mass.len());
@@ -167,7 +176,26 @@ pub(crate) unsafe fn block(x: &Inputs<'_>, b: usize, q: *mut f32, v: *mut f32) -
     }
     let (s0, ks) = e.spring_cols[b];
     assert!(x.spring_f.len() == 3 * e.shape.1 && (s0 + 8 * ks) as usize <= e.springs.len().min(e.spring_at.len()));
-    for k in 0..ks {
+    // The elastic pulls' sum `fe` (from `+0`, as `R::V::ZERO`), in the same walk of the rows.
+    let z = _mm256_setzero_ps();
+    let mut fe = (z, z, z);
+    if let Some((pulls, _)) = x.loads {
+        assert!(pulls.len() == x.spring_f.len());
+        for k in 0..ks {
+            let at = (s0 + 8 * k) as usize;
+            let (c, is_pad, (vx, vy, vz)) = column!(e.springs, e.spring_at, at, x.spring_f);
+            let (_, _, (ex, ey, ez)) = column!(e.springs, e.spring_at, at, pulls);
+            let sign = _mm256_castsi256_ps(_mm256_slli_epi32::<31>(c));
+            macro_rules! term {
+                ($a:expr) => {
+                    _mm256_blendv_ps(_mm256_xor_ps($a, sign), neg0, is_pad)
+                };
+            }
+            f = (_mm256_add_ps(f.0, term!(vx)), _mm256_add_ps(f.1, term!(vy)), _mm256_add_ps(f.2, term!(vz)));
+            fe = (_mm256_add_ps(fe.0, term!(ex)), _mm256_add_ps(fe.1, term!(ey)), _mm256_add_ps(fe.2, term!(ez)));
+        }
+    }
+    for k in 0..if x.loads.is_some() { 0 } else { ks } {
         let (c, is_pad, (vx, vy, vz)) = column!(e.springs, e.spring_at, (s0 + 8 * k) as usize, x.spring_f);
         // End 1's force enters with its sign flipped; a padding entry as `-0`.
         // (Macros, not closures: a closure is compiled without this function's AVX2, its intrinsics as calls.)
@@ -182,7 +210,6 @@ pub(crate) unsafe fn block(x: &Inputs<'_>, b: usize, q: *mut f32, v: *mut f32) -
     if let Some((cross, p6)) = x.cross {
         let (t0, kt) = e.tri_cols[b];
         assert!(cross.len() == 4 * e.shape.2 && (t0 + 8 * kt) as usize <= e.tris.len().min(e.tri_at.len()));
-        let z = _mm256_setzero_ps();
         let mut s = (z, z, z);
         for k in 0..kt {
             let (_, is_pad, (cx, cy, cz)) = column!(e.tris, e.tri_at, (t0 + 8 * k) as usize, cross);
@@ -196,11 +223,37 @@ pub(crate) unsafe fn block(x: &Inputs<'_>, b: usize, q: *mut f32, v: *mut f32) -
         assert!(x.body[i0..i0 + 8].iter().all(|&b| (b as usize) < p6.len()), "a particle's body out of range");
         // SAFETY: every body is below `p6.len()` (asserted just above).
         let p = unsafe { _mm256_i32gather_ps::<4>(p6.as_ptr(), bodies) };
+        let share = (_mm256_mul_ps(s.0, p), _mm256_mul_ps(s.1, p), _mm256_mul_ps(s.2, p));
+        f = (_mm256_add_ps(f.0, share.0), _mm256_add_ps(f.1, share.1), _mm256_add_ps(f.2, share.2));
+        fe = (_mm256_add_ps(fe.0, share.0), _mm256_add_ps(fe.1, share.1), _mm256_add_ps(fe.2, share.2));
+    }
+    if let Some((g, pressure)) = x.caps {
+        assert!(g.len() == 3 * x.mass.len());
+        assert!(x.body[i0..i0 + 8].iter().all(|&b| (b as usize) < pressure.len()), "a particle's body out of range");
+        // SAFETY: `g[3 i0 .. 3 i0 + 24]` is the block's (asserted length); every body is below `pressure.len()`.
+        let (c, p) = unsafe {
+            (split(load3(g.as_ptr().add(3 * i0), None)), _mm256_i32gather_ps::<4>(pressure.as_ptr(), bodies))
+        };
         f = (
-            _mm256_add_ps(f.0, _mm256_mul_ps(s.0, p)),
-            _mm256_add_ps(f.1, _mm256_mul_ps(s.1, p)),
-            _mm256_add_ps(f.2, _mm256_mul_ps(s.2, p)),
+            _mm256_add_ps(f.0, _mm256_mul_ps(c[0], p)),
+            _mm256_add_ps(f.1, _mm256_mul_ps(c[1], p)),
+            _mm256_add_ps(f.2, _mm256_mul_ps(c[2], p)),
         );
+    }
+    // The loads: `|fe|` as glam's `length` (`sqrt((x x + y y) + z z)`) where the limit is finite, else `+0`.
+    if let Some((_, limit)) = x.loads {
+        assert!(limit.len() == x.mass.len());
+        // SAFETY: particles `i0 .. i0 + 8` exist; `load` holds 8 values (the caller's bounds).
+        unsafe {
+            let lim = _mm256_loadu_ps(limit.as_ptr().add(i0));
+            let abs = _mm256_castsi256_ps(_mm256_set1_epi32(0x7fff_ffff));
+            let finite = _mm256_cmp_ps::<_CMP_LT_OQ>(_mm256_and_ps(lim, abs), _mm256_set1_ps(f32::INFINITY));
+            let len = _mm256_sqrt_ps(_mm256_add_ps(
+                _mm256_add_ps(_mm256_mul_ps(fe.0, fe.0), _mm256_mul_ps(fe.1, fe.1)),
+                _mm256_mul_ps(fe.2, fe.2),
+            ));
+            _mm256_storeu_ps(load, _mm256_and_ps(len, finite));
+        }
     }
     let dt = _mm256_set1_ps(x.dt);
     let wdt = _mm256_mul_ps(w, dt);

@@ -275,8 +275,8 @@ fn spring_chunk_dispatch<R: Real, const PROJECTED: bool, const MEASURE: bool>(
         if !MEASURE && f32_avx2 {
             return forces_avx2::<R, PROJECTED>(m, q, qd, start, out);
         }
-        if let (true, true, Some(sink)) = (MEASURE && f32_avx2, els.is_empty(), strain) {
-            return measured_avx2::<R, PROJECTED>(m, q, qd, start, out, sink);
+        if let (true, Some(sink)) = (MEASURE && f32_avx2, strain) {
+            return measured_avx2::<R, PROJECTED>(m, (q, qd), start, out, sink, els);
         }
         if crate::isa::avx2() {
             // SAFETY: the CPU supports AVX2, checked just above.
@@ -303,7 +303,14 @@ fn forces_avx2<R: Real, const PROJECTED: bool>(m: &Model<R>, q: &[R::V], qd: &[R
         let o = as_f32_mut(R::flat_mut(&mut out[k..]));
         // SAFETY: the CPU has AVX2 (the caller's test).
         k += unsafe {
-            super::spring_avx2::springs::<PROJECTED>((xs, vs), &idx[k..], (&rest[k..], &ks[k..], &kd[k..]), o, None)
+            super::spring_avx2::springs::<PROJECTED>(
+                (xs, vs),
+                &idx[k..],
+                (&rest[k..], &ks[k..], &kd[k..]),
+                o,
+                None,
+                None,
+            )
         };
         // The block it stopped at (or the tail), the portable way.
         let n = (out.len() - k).min(8);
@@ -315,20 +322,23 @@ fn forces_avx2<R: Real, const PROJECTED: bool>(m: &Model<R>, q: &[R::V], qd: &[R
     }
 }
 
-/// [`forces_avx2`] for a measuring pass without load limits: each spring's length too, from which `sink` stores
-/// the strains span by span ([`SPAN`] springs from the chunk's start, as [`spring_chunk`] stores them: the same
-/// spans in sparse mode). The springs the kernel leaves are formed here one by one with [`force_parts`].
+/// [`forces_avx2`] for a measuring pass: each spring's length too, from which `sink` stores the strains span by
+/// span ([`SPAN`] springs from the chunk's start, as [`spring_chunk`] stores them: the same spans in sparse mode),
+/// and where `els` is not empty (load limits) each spring's elastic pull into it. The springs the kernel leaves
+/// are formed here one by one with [`force_parts`].
 #[cfg(target_arch = "x86_64")]
 fn measured_avx2<R: Real, const PROJECTED: bool>(
     m: &Model<R>,
-    q: &[R::V],
-    qd: &[R::V],
+    (q, qd): (&[R::V], &[R::V]),
     start: usize,
     out: &mut [R::V],
     sink: &StrainSink<'_, R>,
+    els: &mut [R::V],
 ) {
     use crate::real::{as_f32, as_f32_mut};
     let (xs, vs) = (as_f32(R::flat(q)), as_f32(R::flat(qd)));
+    let pulls = !els.is_empty();
+    assert!(!pulls || els.len() == out.len());
     let mut l = [R::ZERO; SPAN];
     let mut k0 = 0;
     while k0 < out.len() {
@@ -340,20 +350,31 @@ fn measured_avx2<R: Real, const PROJECTED: bool>(
         while k < n {
             let o = as_f32_mut(R::flat_mut(&mut out[k0 + k..k0 + n]));
             let params = (as_f32(&rest[k..]), as_f32(&ks[k..]), as_f32(&kd[k..]));
+            let e = pulls.then(|| as_f32_mut(R::flat_mut(&mut els[k0 + k..k0 + n])));
             // SAFETY: the CPU has AVX2 (the caller's test).
             k += unsafe {
-                super::spring_avx2::springs::<PROJECTED>((xs, vs), &idx[k..], params, o, Some(as_f32_mut(&mut l[k..n])))
+                super::spring_avx2::springs::<PROJECTED>(
+                    (xs, vs),
+                    &idx[k..],
+                    params,
+                    o,
+                    Some(as_f32_mut(&mut l[k..n])),
+                    e,
+                )
             };
             // The block it stopped at (or the tail), one by one.
-            let e = (n - k).min(8);
-            for j in k..k + e {
+            let left = (n - k).min(8);
+            for j in k..k + left {
                 let [a, b] = idx[j].map(|v| v as usize);
                 let (d, w) = ((q[b] - q[a]).to_array(), (qd[b] - qd[a]).to_array());
-                let (f, _, len) = force_parts::<R, PROJECTED>(d, w, rest[j], ks[j], kd[j]);
+                let (f, el, len) = force_parts::<R, PROJECTED>(d, w, rest[j], ks[j], kd[j]);
                 out[k0 + j] = R::V::new(f[0], f[1], f[2]);
+                if pulls {
+                    els[k0 + j] = R::V::new(el[0], el[1], el[2]);
+                }
                 l[j] = len;
             }
-            k += e;
+            k += left;
         }
         // SAFETY: springs `s0 .. s0 + n` are this chunk's alone (`par::chunks` partitions them).
         unsafe { sink.store(s0, &l[..n], rest) };

@@ -20,8 +20,9 @@ use super::runs_avx2::shuf;
 
 /// Springs `idx` (end indices) with their rest lengths, stiffnesses and damping coefficients, at positions `q`
 /// and velocities `qd` (3-vectors as flat components, `3n` values each): the force on each spring's end 0 into
-/// `out` (3 values a spring), and with `lens` each spring's length (the fracture trigger's strains are formed from
-/// them: `spring::StrainSink::store`), eight springs at a time from the first. Returns how many springs it formed: up to
+/// `out` (3 values a spring), with `lens` each spring's length (the fracture trigger's strains are formed from
+/// them: `spring::StrainSink::store`) and with `els` its elastic pull `ks (l − L0) d̂` (the loads'), eight springs
+/// at a time from the first. Returns how many springs it formed: up to
 /// the first block of eight with an end on the last particle, or the last whole block; the caller forms the
 /// rest (and may call again past a block it formed itself).
 ///
@@ -34,11 +35,13 @@ pub(super) unsafe fn springs<const PROJECTED: bool>(
     (rest, ks, kd): (&[f32], &[f32], &[f32]),
     out: &mut [f32],
     mut lens: Option<&mut [f32]>,
+    mut els: Option<&mut [f32]>,
 ) -> usize {
     let ns = idx.len();
     assert!(q.len() == qd.len() && q.len().is_multiple_of(3));
     assert!(rest.len() == ns && ks.len() == ns && kd.len() == ns && out.len() == 3 * ns);
     assert!(lens.as_ref().is_none_or(|l| l.len() >= ns));
+    assert!(els.as_ref().is_none_or(|e| e.len() >= 3 * ns));
     let n = q.len() / 3;
     if n < 2 {
         return 0;
@@ -74,13 +77,16 @@ pub(super) unsafe fn springs<const PROJECTED: bool>(
                 _mm256_loadu_ps(kd.as_ptr().add(k)),
             )
         };
-        let ((f0, f1, f2), l) = force8::<PROJECTED>(sub8(xj, xi), sub8(vj, vi), r, s, c);
-        // SAFETY: `out[3k .. 3k + 24]` is inside `out` (`3 ns` values), `lens[k .. k + 8]` inside `lens` (at
-        // least `ns`, asserted above).
+        let ((f0, f1, f2), l, (e0, e1, e2)) = force8::<PROJECTED>(sub8(xj, xi), sub8(vj, vi), r, s, c);
+        // SAFETY: `out[3k .. 3k + 24]` is inside `out` (`3 ns` values), `lens[k .. k + 8]` inside `lens` and
+        // `els[3k .. 3k + 24]` inside `els` (their lengths asserted above).
         unsafe {
             store_xyz8(out.as_mut_ptr().add(3 * k), f0, f1, f2);
             if let Some(lens) = lens.as_deref_mut() {
                 _mm256_storeu_ps(lens.as_mut_ptr().add(k), l);
+            }
+            if let Some(els) = els.as_deref_mut() {
+                store_xyz8(els.as_mut_ptr().add(3 * k), e0, e1, e2);
             }
         }
         k += 8;
@@ -90,7 +96,7 @@ pub(super) unsafe fn springs<const PROJECTED: bool>(
 
 /// [`super::spring::force_parts`]'s force on eight lanes, in its order: `l2 = (dx dx + dy dy) + dz dz`, `l =
 /// sqrt(l2)`, `inv = 1 / l` where `l2 > 0` (else `+0`), `u = d inv`, `el = ks (l − L0)`; projected `u (el + kd
-/// ((wx ux + wy uy) + wz uz))`, else `u el + w kd`; and the lengths `l`.
+/// ((wx ux + wy uy) + wz uz))`, else `u el + w kd`; and the lengths `l` and the elastic parts `u el`.
 #[target_feature(enable = "avx2")]
 #[inline]
 fn force8<const PROJECTED: bool>(
@@ -99,24 +105,25 @@ fn force8<const PROJECTED: bool>(
     rest: __m256,
     ks: __m256,
     kd: __m256,
-) -> ((__m256, __m256, __m256), __m256) {
+) -> ((__m256, __m256, __m256), __m256, (__m256, __m256, __m256)) {
     let l2 = dot8(d, d);
     let l = _mm256_sqrt_ps(l2);
     let positive = _mm256_cmp_ps::<_CMP_GT_OQ>(l2, _mm256_setzero_ps());
     let inv = _mm256_and_ps(_mm256_div_ps(_mm256_set1_ps(1.0), l), positive);
     let u = (_mm256_mul_ps(d.0, inv), _mm256_mul_ps(d.1, inv), _mm256_mul_ps(d.2, inv));
     let el = _mm256_mul_ps(ks, _mm256_sub_ps(l, rest));
+    let elastic = (_mm256_mul_ps(u.0, el), _mm256_mul_ps(u.1, el), _mm256_mul_ps(u.2, el));
     let f = if PROJECTED {
         let mag = _mm256_add_ps(el, _mm256_mul_ps(kd, dot8(w, u)));
         (_mm256_mul_ps(u.0, mag), _mm256_mul_ps(u.1, mag), _mm256_mul_ps(u.2, mag))
     } else {
         (
-            _mm256_add_ps(_mm256_mul_ps(u.0, el), _mm256_mul_ps(w.0, kd)),
-            _mm256_add_ps(_mm256_mul_ps(u.1, el), _mm256_mul_ps(w.1, kd)),
-            _mm256_add_ps(_mm256_mul_ps(u.2, el), _mm256_mul_ps(w.2, kd)),
+            _mm256_add_ps(elastic.0, _mm256_mul_ps(w.0, kd)),
+            _mm256_add_ps(elastic.1, _mm256_mul_ps(w.1, kd)),
+            _mm256_add_ps(elastic.2, _mm256_mul_ps(w.2, kd)),
         )
     };
-    (f, l)
+    (f, l, elastic)
 }
 
 /// Eight 3-vectors given as components (lane `l` vector `l`) stored at `out` as 24 consecutive values: each
@@ -194,13 +201,14 @@ mod tests {
             let ks: Vec<f32> = (0..ns).map(|_| 1e3 * (1.0 + unit())).collect();
             let kd: Vec<f32> = (0..ns).map(|_| 2.0 + unit()).collect();
             for projected in [true, false] {
-                let (mut out, mut lens) = (vec![f32::NAN; 3 * ns], vec![f32::NAN; ns]);
+                let (mut out, mut lens, mut els) = (vec![f32::NAN; 3 * ns], vec![f32::NAN; ns], vec![f32::NAN; 3 * ns]);
+                let (params, l, e) = ((&rest[..], &ks[..], &kd[..]), Some(&mut lens[..]), Some(&mut els[..]));
                 // SAFETY: the CPU has AVX2 (tested above).
                 let done = unsafe {
                     if projected {
-                        springs::<true>((&q, &qd), &idx, (&rest, &ks, &kd), &mut out, Some(&mut lens))
+                        springs::<true>((&q, &qd), &idx, params, &mut out, l, e)
                     } else {
-                        springs::<false>((&q, &qd), &idx, (&rest, &ks, &kd), &mut out, Some(&mut lens))
+                        springs::<false>((&q, &qd), &idx, params, &mut out, l, e)
                     }
                 };
                 let want = if ns >= 24 { 16 } else { ns / 8 * 8 };
@@ -210,7 +218,7 @@ mod tests {
                     let (xi, xj, vi, vj) = (at(&q, i), at(&q, j), at(&qd, i), at(&qd, j));
                     let d = [0, 1, 2].map(|c| xj[c] - xi[c]);
                     let w = [0, 1, 2].map(|c| vj[c] - vi[c]);
-                    let (f, _, l) = if projected {
+                    let (f, el, l) = if projected {
                         force_parts::<f32, true>(d, w, rest[k], ks[k], kd[k])
                     } else {
                         force_parts::<f32, false>(d, w, rest[k], ks[k], kd[k])
@@ -220,9 +228,12 @@ mod tests {
                         let got = [got[0], got[1], got[2]].map(f32::to_bits);
                         assert_eq!(got, f.map(f32::to_bits), "spring {k} of {ns}, {projected}");
                         assert_eq!(lens[k].to_bits(), l.to_bits(), "length of spring {k} of {ns}");
+                        let e = [els[3 * k], els[3 * k + 1], els[3 * k + 2]].map(f32::to_bits);
+                        assert_eq!(e, el.map(f32::to_bits), "elastic pull of spring {k} of {ns}");
                     } else {
                         assert!(got.iter().all(|x| x.is_nan()), "spring {k} of {ns} written past the blocks");
                         assert!(lens[k].is_nan(), "length {k} of {ns} written past the blocks");
+                        assert!(els[3 * k..3 * k + 3].iter().all(|x| x.is_nan()), "pull {k} of {ns} written past");
                     }
                 }
             }

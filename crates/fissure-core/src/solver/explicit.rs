@@ -75,28 +75,28 @@ fn gather_work<R: Real>(m: &Model<R>, surface: bool) -> usize {
 
 /// The inputs of the symplectic Euler update eight particles at a time (`forces::gather_avx2`) where it serves:
 /// `f32` on AVX2 with the per-spring kernel (its blocks built: `ForceScratch::ell`), and the surface's forces (if
-/// any) the gas's alone, without caps over openings (with wind or caps the portable gather sums them).
+/// any) the gas's and its caps' alone (with wind the portable gather sums the triangles' forces). `loads`: a
+/// measuring step's, which sums each particle's load beside its force.
 #[cfg(target_arch = "x86_64")]
 fn wide_inputs<'a, R: Real>(
     m: &'a Model<R>,
     f: &'a crate::forces::ForceScratch<R>,
     surface: bool,
     dt: R,
+    loads: bool,
 ) -> Option<crate::forces::gather_avx2::Inputs<'a>> {
     use crate::real::{as_f32, va_as_f32};
     let f32 = std::any::TypeId::of::<R>() == std::any::TypeId::of::<f32>();
-    if !f32 || f.runs || !f.ell.fits(m) || (surface && (f.tri_f_written || !f.caps.g.is_empty())) {
-        return None;
-    }
-    let gas = surface && m.has_pressure();
-    if surface && !gas {
+    if !f32 || f.runs || !f.ell.fits(m) || (surface && (f.tri_f_written || !m.has_pressure())) {
         return None;
     }
     let g = m.gravity.to_vec3();
     Some(crate::forces::gather_avx2::Inputs {
         ell: &f.ell,
         spring_f: as_f32(R::flat(&f.spring_f)),
-        cross: gas.then(|| (va_as_f32::<R>(&f.tri_cross), as_f32(&f.body_p6))),
+        cross: surface.then(|| (va_as_f32::<R>(&f.tri_cross), as_f32(&f.body_p6))),
+        caps: (surface && !f.caps.g.is_empty()).then(|| (as_f32(R::flat(&f.caps.g)), as_f32(&f.body_pressure))),
+        loads: loads.then(|| (as_f32(R::flat(&f.spring_el)), as_f32(&m.particle_load_limit))),
         body: &m.particle_body,
         mass: as_f32(&m.particle_mass),
         inv_mass: as_f32(&m.particle_inv_mass),
@@ -122,7 +122,7 @@ impl<R: Real> CpuSolver<R> {
         let f = &self.f;
         let pool = par::gather_pool(gather_work(m, surface));
         #[cfg(target_arch = "x86_64")]
-        let wide = wide_inputs(m, f, surface, dt);
+        let wide = wide_inputs(m, f, surface, dt, false);
         par::chunks2_pooled(pool, par::piece(GATHER_CHUNK), &mut s.particle_q, &mut s.particle_qd, |start, qs, vs| {
             let mut bad = false;
             // Particle `start + k`, the portable way.
@@ -153,7 +153,8 @@ impl<R: Real> CpuSolver<R> {
                             let v8 = as_f32_mut(R::flat_mut(&mut vs[k..k + 8])).as_mut_ptr();
                             // SAFETY: the CPU has AVX2 and the blocks were built for this model (`wide_inputs`);
                             // block `at / 8` is wide, and `q8`, `v8` hold its 24 values each.
-                            bad |= unsafe { crate::forces::gather_avx2::block(x, at / 8, q8, v8) };
+                            bad |=
+                                unsafe { crate::forces::gather_avx2::block(x, at / 8, q8, v8, std::ptr::null_mut()) };
                             k += 8;
                         } else {
                             let end = (k + 8 - at % 8).min(qs.len());
@@ -188,6 +189,8 @@ impl<R: Real> CpuSolver<R> {
         let gas = surface && m.has_pressure();
         // Each spring entry is walked for two sums here.
         let pool = par::gather_pool(gather_work(m, surface) + 2 * m.spring_count());
+        #[cfg(target_arch = "x86_64")]
+        let wide = wide_inputs(m, f, surface, dt, true);
         par::chunks3_pooled(
             pool,
             par::piece(GATHER_CHUNK),
@@ -196,7 +199,8 @@ impl<R: Real> CpuSolver<R> {
             &mut load,
             |start, qs, vs, ls| {
                 let mut bad = false;
-                for k in 0..qs.len() {
+                // Particle `start + k`, the portable way.
+                let one = |k: usize, qs: &mut [R::V], vs: &mut [R::V], ls: &mut [R], bad: &mut bool| {
                     let i = start + k;
                     let mut ft = m.gravity * m.particle_mass[i];
                     let mut fe = R::V::ZERO;
@@ -225,12 +229,42 @@ impl<R: Real> CpuSolver<R> {
                     ls[k] = if m.particle_load_limit[i].is_finite() { fe.length() } else { R::ZERO };
                     let w = m.particle_inv_mass[i];
                     if w == R::ZERO {
-                        continue;
+                        return;
                     }
                     vs[k] += ft * (w * dt);
                     qs[k] += vs[k] * dt;
-                    bad |= !(vs[k].is_finite() && qs[k].is_finite());
-                }
+                    *bad |= !(vs[k].is_finite() && qs[k].is_finite());
+                };
+                // Whole blocks of eight on AVX2 (`forces::gather_avx2`, the same bits), as in `symplectic_euler`.
+                #[cfg(not(target_arch = "x86_64"))]
+                let k = 0;
+                #[cfg(target_arch = "x86_64")]
+                let k = match &wide {
+                    None => 0,
+                    Some(x) => {
+                        use crate::real::as_f32_mut;
+                        let mut k = 0;
+                        while k < qs.len() {
+                            let at = start + k;
+                            if at % 8 == 0 && k + 8 <= qs.len() && x.ell.wide(at / 8) {
+                                let q8 = as_f32_mut(R::flat_mut(&mut qs[k..k + 8])).as_mut_ptr();
+                                let v8 = as_f32_mut(R::flat_mut(&mut vs[k..k + 8])).as_mut_ptr();
+                                let l8 = as_f32_mut(&mut ls[k..k + 8]).as_mut_ptr();
+                                // SAFETY: the CPU has AVX2 and the blocks were built for this model
+                                // (`wide_inputs`); block `at / 8` is wide, and `q8`, `v8` hold its 24 values each,
+                                // `l8` its 8 loads.
+                                bad |= unsafe { crate::forces::gather_avx2::block(x, at / 8, q8, v8, l8) };
+                                k += 8;
+                            } else {
+                                let end = (k + 8 - at % 8).min(qs.len());
+                                (k..end).for_each(|k| one(k, qs, vs, ls, &mut bad));
+                                k = end;
+                            }
+                        }
+                        k
+                    }
+                };
+                (k..qs.len()).for_each(|k| one(k, qs, vs, ls, &mut bad));
                 if bad {
                     blown.store(true, Ordering::Relaxed);
                 }
