@@ -220,13 +220,7 @@ pub(super) unsafe fn soa8(base: *const f32, off: [usize; 8]) -> (__m256, __m256,
 #[target_feature(enable = "avx2")]
 #[inline]
 unsafe fn store_xyzz(out: *mut f32, cx: __m256, cy: __m256, cz: __m256) {
-    // Register `l` holds vector `l` in its low half, `l + 4` in its high.
-    let (u0, u1) = (_mm256_unpacklo_ps(cx, cy), _mm256_unpackhi_ps(cx, cy));
-    let (v0, v1) = (_mm256_unpacklo_ps(cz, cz), _mm256_unpackhi_ps(cz, cz));
-    let o0 = _mm256_shuffle_ps::<{ shuf(1, 0, 1, 0) }>(u0, v0);
-    let o1 = _mm256_shuffle_ps::<{ shuf(3, 2, 3, 2) }>(u0, v0);
-    let o2 = _mm256_shuffle_ps::<{ shuf(1, 0, 1, 0) }>(u1, v1);
-    let o3 = _mm256_shuffle_ps::<{ shuf(3, 2, 3, 2) }>(u1, v1);
+    let [o0, o1, o2, o3] = xyzz8(cx, cy, cz);
     // SAFETY: the caller's bounds.
     unsafe {
         _mm_storeu_ps(out, _mm256_castps256_ps128(o0));
@@ -238,6 +232,21 @@ unsafe fn store_xyzz(out: *mut f32, cx: __m256, cy: __m256, cz: __m256) {
         _mm_storeu_ps(out.add(24), _mm256_extractf128_ps::<1>(o2));
         _mm_storeu_ps(out.add(28), _mm256_extractf128_ps::<1>(o3));
     }
+}
+
+/// Eight 3-vectors given as components (lane `l` vector `l`) joined into `x, y, z, z` quadruples with six
+/// shuffles: register `l` holds vector `l` in its low half and `l + 4` in its high.
+#[target_feature(enable = "avx2")]
+#[inline]
+pub(super) fn xyzz8(cx: __m256, cy: __m256, cz: __m256) -> [__m256; 4] {
+    let (u0, u1) = (_mm256_unpacklo_ps(cx, cy), _mm256_unpackhi_ps(cx, cy));
+    let (v0, v1) = (_mm256_unpacklo_ps(cz, cz), _mm256_unpackhi_ps(cz, cz));
+    [
+        _mm256_shuffle_ps::<{ shuf(1, 0, 1, 0) }>(u0, v0),
+        _mm256_shuffle_ps::<{ shuf(3, 2, 3, 2) }>(u0, v0),
+        _mm256_shuffle_ps::<{ shuf(1, 0, 1, 0) }>(u1, v1),
+        _mm256_shuffle_ps::<{ shuf(3, 2, 3, 2) }>(u1, v1),
+    ]
 }
 
 /// glam's `cross` of `a` and `b` on eight lanes: `(ay bz − by az, az bx − bz ax, ax by − bx ay)`.
@@ -313,12 +322,13 @@ pub(super) unsafe fn cap_edges(
 }
 
 #[cfg(test)]
-mod tests {
+pub(super) mod tests {
     use crate::real::Real;
     use glam::{Vec3, Vec3A};
 
-    /// Marsaglia's xorshift generator from `seed` (not 0): the tests' positions and indices.
-    fn xorshift(mut seed: u64) -> impl FnMut() -> u64 {
+    /// Marsaglia's xorshift generator from `seed` (not 0): the tests' positions and indices (here and in
+    /// `super::super::spring_avx2`'s).
+    pub(in crate::forces) fn xorshift(mut seed: u64) -> impl FnMut() -> u64 {
         move || {
             seed ^= seed << 13;
             seed ^= seed >> 7;

@@ -15,8 +15,7 @@
 
 use std::arch::x86_64::*;
 
-use super::cross_avx2::{dot8, soa8, sub8};
-use super::runs_avx2::shuf;
+use super::cross_avx2::{dot8, soa8, sub8, xyzz8};
 
 /// Springs `idx` (end indices) with their rest lengths, stiffnesses and damping coefficients, at positions `q`
 /// and velocities `qd` (3-vectors as flat components, `3n` values each): the force on each spring's end 0 into
@@ -136,13 +135,8 @@ fn force8<const PROJECTED: bool>(
 #[target_feature(enable = "avx2")]
 #[inline]
 unsafe fn store_xyz8(out: *mut f32, cx: __m256, cy: __m256, cz: __m256) {
-    // Register `l` holds vector `l` in its low half, `l + 4` in its high (as `cross_avx2::store_xyzz`).
-    let (u0, u1) = (_mm256_unpacklo_ps(cx, cy), _mm256_unpackhi_ps(cx, cy));
-    let (v0, v1) = (_mm256_unpacklo_ps(cz, cz), _mm256_unpackhi_ps(cz, cz));
-    let o0 = _mm256_shuffle_ps::<{ shuf(1, 0, 1, 0) }>(u0, v0);
-    let o1 = _mm256_shuffle_ps::<{ shuf(3, 2, 3, 2) }>(u0, v0);
-    let o2 = _mm256_shuffle_ps::<{ shuf(1, 0, 1, 0) }>(u1, v1);
-    let o3 = _mm256_shuffle_ps::<{ shuf(3, 2, 3, 2) }>(u1, v1);
+    // Register `l` holds vector `l` in its low half, `l + 4` in its high.
+    let [o0, o1, o2, o3] = xyzz8(cx, cy, cz);
     let last = _mm256_extractf128_ps::<1>(o3);
     // SAFETY: the caller's bounds: the seven 16-byte stores end at `out + 22`, the last lane's at `out + 24`.
     unsafe {
@@ -162,16 +156,8 @@ unsafe fn store_xyz8(out: *mut f32, cx: __m256, cy: __m256, cz: __m256) {
 #[cfg(test)]
 mod tests {
     use super::springs;
+    use crate::forces::cross_avx2::tests::xorshift;
     use crate::forces::spring::force_parts;
-
-    fn xorshift(mut seed: u64) -> impl FnMut() -> u64 {
-        move || {
-            seed ^= seed << 13;
-            seed ^= seed >> 7;
-            seed ^= seed << 17;
-            seed
-        }
-    }
 
     /// The kernel gives the portable maths' bits for every spring it forms (coincident ends included), stops at a
     /// block with an end on the last particle, and writes nothing past the springs it formed.

@@ -2,6 +2,8 @@
 //! into its gather, and fused with the spring-run kernel on grids), velocity Verlet and RK4.
 
 use super::*;
+#[cfg(target_arch = "x86_64")]
+use crate::forces::gather_avx2;
 
 #[derive(Clone, Debug, Default)]
 pub(super) struct Rk4Scratch<R: Real> {
@@ -84,14 +86,14 @@ fn wide_inputs<'a, R: Real>(
     surface: bool,
     dt: R,
     loads: bool,
-) -> Option<crate::forces::gather_avx2::Inputs<'a>> {
+) -> Option<gather_avx2::Inputs<'a>> {
     use crate::real::{as_f32, va_as_f32};
     let f32 = std::any::TypeId::of::<R>() == std::any::TypeId::of::<f32>();
     if !f32 || f.runs || !f.ell.fits(m) || (surface && (f.tri_f_written || !m.has_pressure())) {
         return None;
     }
     let g = m.gravity.to_vec3();
-    Some(crate::forces::gather_avx2::Inputs {
+    Some(gather_avx2::Inputs {
         ell: &f.ell,
         spring_f: as_f32(R::flat(&f.spring_f)),
         cross: surface.then(|| (va_as_f32::<R>(&f.tri_cross), as_f32(&f.body_p6))),
@@ -103,6 +105,24 @@ fn wide_inputs<'a, R: Real>(
         gravity: [g.x, g.y, g.z],
         dt: as_f32(std::slice::from_ref(&dt))[0],
     })
+}
+
+/// Walks a gather's piece, particles `start .. start + len`: `f(k, true)` for each whole block of eight that `ell`
+/// lets go wide (`k` its first particle, counted from `start`), `f(k, false)` for each other particle, in order.
+#[cfg(target_arch = "x86_64")]
+fn by_blocks(ell: &gather_avx2::Ell, start: usize, len: usize, mut f: impl FnMut(usize, bool)) {
+    let mut k = 0;
+    while k < len {
+        let at = start + k;
+        if at.is_multiple_of(8) && k + 8 <= len && ell.wide(at / 8) {
+            f(k, true);
+            k += 8;
+        } else {
+            let end = (k + 8 - at % 8).min(len);
+            (k..end).for_each(|j| f(j, false));
+            k = end;
+        }
+    }
 }
 
 impl<R: Real> CpuSolver<R> {
@@ -136,36 +156,26 @@ impl<R: Real> CpuSolver<R> {
                 qs[k] += vs[k] * dt;
                 *bad |= !(vs[k].is_finite() && qs[k].is_finite());
             };
-            // Whole blocks of eight on AVX2 (`forces::gather_avx2`, the same bits), the others the portable way;
-            // `k`: the first particle left.
-            #[cfg(not(target_arch = "x86_64"))]
-            let k = 0;
+            // Whole blocks of eight on AVX2 (`forces::gather_avx2`, the same bits), the others the portable way.
             #[cfg(target_arch = "x86_64")]
-            let k = match &wide {
-                None => 0,
-                Some(x) => {
-                    use crate::real::as_f32_mut;
-                    let mut k = 0;
-                    while k < qs.len() {
-                        let at = start + k;
-                        if at % 8 == 0 && k + 8 <= qs.len() && x.ell.wide(at / 8) {
-                            let q8 = as_f32_mut(R::flat_mut(&mut qs[k..k + 8])).as_mut_ptr();
-                            let v8 = as_f32_mut(R::flat_mut(&mut vs[k..k + 8])).as_mut_ptr();
-                            // SAFETY: the CPU has AVX2 and the blocks were built for this model (`wide_inputs`);
-                            // block `at / 8` is wide, and `q8`, `v8` hold its 24 values each.
-                            bad |=
-                                unsafe { crate::forces::gather_avx2::block(x, at / 8, q8, v8, std::ptr::null_mut()) };
-                            k += 8;
-                        } else {
-                            let end = (k + 8 - at % 8).min(qs.len());
-                            (k..end).for_each(|k| one(k, qs, vs, &mut bad));
-                            k = end;
-                        }
+            if let Some(x) = &wide {
+                use crate::real::as_f32_mut;
+                by_blocks(x.ell, start, qs.len(), |k, whole| {
+                    if !whole {
+                        return one(k, qs, vs, &mut bad);
                     }
-                    k
+                    let q8 = as_f32_mut(R::flat_mut(&mut qs[k..k + 8])).as_mut_ptr();
+                    let v8 = as_f32_mut(R::flat_mut(&mut vs[k..k + 8])).as_mut_ptr();
+                    // SAFETY: the CPU has AVX2 and the blocks were built for this model (`wide_inputs`); the block
+                    // is wide (`by_blocks`), and `q8`, `v8` hold its 24 values each.
+                    bad |= unsafe { gather_avx2::block(x, (start + k) / 8, q8, v8, std::ptr::null_mut()) };
+                });
+                if bad {
+                    blown.store(true, Ordering::Relaxed);
                 }
-            };
-            (k..qs.len()).for_each(|k| one(k, qs, vs, &mut bad));
+                return;
+            }
+            (0..qs.len()).for_each(|k| one(k, qs, vs, &mut bad));
             if bad {
                 blown.store(true, Ordering::Relaxed);
             }
@@ -236,35 +246,25 @@ impl<R: Real> CpuSolver<R> {
                     *bad |= !(vs[k].is_finite() && qs[k].is_finite());
                 };
                 // Whole blocks of eight on AVX2 (`forces::gather_avx2`, the same bits), as in `symplectic_euler`.
-                #[cfg(not(target_arch = "x86_64"))]
-                let k = 0;
                 #[cfg(target_arch = "x86_64")]
-                let k = match &wide {
-                    None => 0,
-                    Some(x) => {
-                        use crate::real::as_f32_mut;
-                        let mut k = 0;
-                        while k < qs.len() {
-                            let at = start + k;
-                            if at % 8 == 0 && k + 8 <= qs.len() && x.ell.wide(at / 8) {
-                                let q8 = as_f32_mut(R::flat_mut(&mut qs[k..k + 8])).as_mut_ptr();
-                                let v8 = as_f32_mut(R::flat_mut(&mut vs[k..k + 8])).as_mut_ptr();
-                                let l8 = as_f32_mut(&mut ls[k..k + 8]).as_mut_ptr();
-                                // SAFETY: the CPU has AVX2 and the blocks were built for this model
-                                // (`wide_inputs`); block `at / 8` is wide, and `q8`, `v8` hold its 24 values each,
-                                // `l8` its 8 loads.
-                                bad |= unsafe { crate::forces::gather_avx2::block(x, at / 8, q8, v8, l8) };
-                                k += 8;
-                            } else {
-                                let end = (k + 8 - at % 8).min(qs.len());
-                                (k..end).for_each(|k| one(k, qs, vs, ls, &mut bad));
-                                k = end;
-                            }
+                if let Some(x) = &wide {
+                    use crate::real::as_f32_mut;
+                    by_blocks(x.ell, start, qs.len(), |k, whole| {
+                        if !whole {
+                            return one(k, qs, vs, ls, &mut bad);
                         }
-                        k
+                        let q8 = as_f32_mut(R::flat_mut(&mut qs[k..k + 8])).as_mut_ptr();
+                        let v8 = as_f32_mut(R::flat_mut(&mut vs[k..k + 8])).as_mut_ptr();
+                        let l8 = as_f32_mut(&mut ls[k..k + 8]).as_mut_ptr();
+                        // SAFETY: as in `symplectic_euler`; `l8` holds the block's 8 loads.
+                        bad |= unsafe { gather_avx2::block(x, (start + k) / 8, q8, v8, l8) };
+                    });
+                    if bad {
+                        blown.store(true, Ordering::Relaxed);
                     }
-                };
-                (k..qs.len()).for_each(|k| one(k, qs, vs, ls, &mut bad));
+                    return;
+                }
+                (0..qs.len()).for_each(|k| one(k, qs, vs, ls, &mut bad));
                 if bad {
                     blown.store(true, Ordering::Relaxed);
                 }
