@@ -80,7 +80,6 @@ impl Ell {
                 .extend(e.tris[t0 as usize..(t0 + 8 * kt) as usize].iter().map(|&x| if x == PAD { 0 } else { 4 * x }));
             wide &=
                 e.springs[s0 as usize..(s0 + 8 * k) as usize].iter().all(|&x| x == PAD || (x >> 1) as usize + 1 < ns);
-            wide &= e.tri_cols[b].1 == 0 || nt >= 1;
             e.wide.push(wide);
         }
         e

@@ -273,10 +273,10 @@ fn spring_chunk_dispatch<R: Real, const PROJECTED: bool, const MEASURE: bool>(
     {
         let f32_avx2 = std::any::TypeId::of::<R>() == std::any::TypeId::of::<f32>() && crate::isa::avx2();
         if !MEASURE && f32_avx2 {
-            return forces_avx2::<R, PROJECTED>(m, q, qd, start, out);
+            return super::spring_avx2::forces::<R, PROJECTED>(m, q, qd, start, out);
         }
         if let (true, Some(sink)) = (MEASURE && f32_avx2, strain) {
-            return measured_avx2::<R, PROJECTED>(m, (q, qd), start, out, sink, els);
+            return super::spring_avx2::measured::<R, PROJECTED>(m, (q, qd), start, out, sink, els);
         }
         if crate::isa::avx2() {
             // SAFETY: the CPU supports AVX2, checked just above.
@@ -287,104 +287,9 @@ fn spring_chunk_dispatch<R: Real, const PROJECTED: bool, const MEASURE: bool>(
     spring_chunk::<R, PROJECTED, MEASURE>(m, q, qd, start, out, strain, els)
 }
 
-/// The forces of springs `start .. start + out.len()` in `f32` on AVX2: eight at a time by hand
-/// (`super::spring_avx2`, the same bits), a block the kernel leaves (an end on the last particle) and the tail
-/// the portable way. On the 2,562-vertex ball (one thread, the Zen 4 development VM, 2026-11-29) the spring
-/// stage went 23.0–25.3 → 17.7–18.6 µs a step (`benches/RESULTS.md`, issue 15).
-#[cfg(target_arch = "x86_64")]
-fn forces_avx2<R: Real, const PROJECTED: bool>(m: &Model<R>, q: &[R::V], qd: &[R::V], start: usize, out: &mut [R::V]) {
-    use crate::real::{as_f32, as_f32_mut};
-    let end = start + out.len();
-    let (idx, rest) = (&m.spring_indices[start..end], as_f32(&m.spring_rest_length[start..end]));
-    let (ks, kd) = (as_f32(&m.spring_stiffness[start..end]), as_f32(&m.spring_damping[start..end]));
-    let (xs, vs) = (as_f32(R::flat(q)), as_f32(R::flat(qd)));
-    let mut k = 0;
-    while k < out.len() {
-        let o = as_f32_mut(R::flat_mut(&mut out[k..]));
-        // SAFETY: the CPU has AVX2 (the caller's test).
-        k += unsafe {
-            super::spring_avx2::springs::<PROJECTED>(
-                (xs, vs),
-                &idx[k..],
-                (&rest[k..], &ks[k..], &kd[k..]),
-                o,
-                None,
-                None,
-            )
-        };
-        // The block it stopped at (or the tail), the portable way.
-        let n = (out.len() - k).min(8);
-        if n > 0 {
-            // SAFETY: the CPU supports AVX2 (the caller's test).
-            unsafe { spring_chunk_avx2::<R, PROJECTED, false>(m, q, qd, start + k, &mut out[k..k + n], None, &mut []) };
-            k += n;
-        }
-    }
-}
-
-/// [`forces_avx2`] for a measuring pass: each spring's length too, from which `sink` stores the strains span by
-/// span ([`SPAN`] springs from the chunk's start, as [`spring_chunk`] stores them: the same spans in sparse mode),
-/// and where `els` is not empty (load limits) each spring's elastic pull into it. The springs the kernel leaves
-/// are formed here one by one with [`force_parts`].
-#[cfg(target_arch = "x86_64")]
-fn measured_avx2<R: Real, const PROJECTED: bool>(
-    m: &Model<R>,
-    (q, qd): (&[R::V], &[R::V]),
-    start: usize,
-    out: &mut [R::V],
-    sink: &StrainSink<'_, R>,
-    els: &mut [R::V],
-) {
-    use crate::real::{as_f32, as_f32_mut};
-    let (xs, vs) = (as_f32(R::flat(q)), as_f32(R::flat(qd)));
-    let pulls = !els.is_empty();
-    assert!(!pulls || els.len() == out.len());
-    let mut l = [R::ZERO; SPAN];
-    let mut k0 = 0;
-    while k0 < out.len() {
-        let n = (out.len() - k0).min(SPAN);
-        let s0 = start + k0;
-        let (idx, rest) = (&m.spring_indices[s0..s0 + n], &m.spring_rest_length[s0..s0 + n]);
-        let (ks, kd) = (&m.spring_stiffness[s0..s0 + n], &m.spring_damping[s0..s0 + n]);
-        let mut k = 0;
-        while k < n {
-            let o = as_f32_mut(R::flat_mut(&mut out[k0 + k..k0 + n]));
-            let params = (as_f32(&rest[k..]), as_f32(&ks[k..]), as_f32(&kd[k..]));
-            let e = pulls.then(|| as_f32_mut(R::flat_mut(&mut els[k0 + k..k0 + n])));
-            // SAFETY: the CPU has AVX2 (the caller's test).
-            k += unsafe {
-                super::spring_avx2::springs::<PROJECTED>(
-                    (xs, vs),
-                    &idx[k..],
-                    params,
-                    o,
-                    Some(as_f32_mut(&mut l[k..n])),
-                    e,
-                )
-            };
-            // The block it stopped at (or the tail), one by one.
-            let left = (n - k).min(8);
-            for j in k..k + left {
-                let [a, b] = idx[j].map(|v| v as usize);
-                let (d, w) = ((q[b] - q[a]).to_array(), (qd[b] - qd[a]).to_array());
-                let (f, el, len) = force_parts::<R, PROJECTED>(d, w, rest[j], ks[j], kd[j]);
-                out[k0 + j] = R::V::new(f[0], f[1], f[2]);
-                if pulls {
-                    els[k0 + j] = R::V::new(el[0], el[1], el[2]);
-                }
-                l[j] = len;
-            }
-            k += left;
-        }
-        // SAFETY: springs `s0 .. s0 + n` are this chunk's alone (`par::chunks` partitions them).
-        unsafe { sink.store(s0, &l[..n], rest) };
-        k0 += n;
-    }
-}
-
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2")]
-fn spring_chunk_avx2<R: Real, const PROJECTED: bool, const MEASURE: bool>(
+pub(super) fn spring_chunk_avx2<R: Real, const PROJECTED: bool, const MEASURE: bool>(
     m: &Model<R>,
     q: &[R::V],
     qd: &[R::V],

@@ -12,10 +12,107 @@
 //! The same bits as the portable code: each lane's maths is [`super::spring::force_parts`]'s, in its order, with
 //! no fused multiply-adds (`sqrt` and division are correctly rounded in both). A block whose springs read the
 //! last particle (whose 16-byte load would pass the end of the positions) goes the portable way.
+//!
+//! [`forces`] and [`measured`] drive it over a chunk of the spring pass (`spring::spring_chunk_dispatch` calls
+//! them in `f32` on AVX2), forming what it leaves the portable way.
 
 use std::arch::x86_64::*;
 
 use super::cross_avx2::{dot8, soa8, sub8, xyzz8};
+use super::spring::{SPAN, StrainSink, force_parts};
+use crate::model::Model;
+use crate::real::{Real, Vector3};
+
+/// The forces of springs `start .. start + out.len()` in `f32` on AVX2: eight at a time by hand
+/// (`super::spring_avx2`, the same bits), a block the kernel leaves (an end on the last particle) and the tail
+/// the portable way. On the 2,562-vertex ball (one thread, the Zen 4 development VM, 2026-11-29) the spring
+/// stage went 23.0–25.3 → 17.7–18.6 µs a step (`benches/RESULTS.md`, issue 15).
+pub(super) fn forces<R: Real, const PROJECTED: bool>(
+    m: &Model<R>,
+    q: &[R::V],
+    qd: &[R::V],
+    start: usize,
+    out: &mut [R::V],
+) {
+    use crate::real::{as_f32, as_f32_mut};
+    let end = start + out.len();
+    let (idx, rest) = (&m.spring_indices[start..end], as_f32(&m.spring_rest_length[start..end]));
+    let (ks, kd) = (as_f32(&m.spring_stiffness[start..end]), as_f32(&m.spring_damping[start..end]));
+    let (xs, vs) = (as_f32(R::flat(q)), as_f32(R::flat(qd)));
+    let mut k = 0;
+    while k < out.len() {
+        let o = as_f32_mut(R::flat_mut(&mut out[k..]));
+        // SAFETY: the CPU has AVX2 (the caller's test).
+        k += unsafe { springs::<PROJECTED>((xs, vs), &idx[k..], (&rest[k..], &ks[k..], &kd[k..]), o, None, None) };
+        // The block it stopped at (or the tail), the portable way.
+        let n = (out.len() - k).min(8);
+        if n > 0 {
+            // SAFETY: the CPU supports AVX2 (the caller's test).
+            unsafe {
+                super::spring::spring_chunk_avx2::<R, PROJECTED, false>(
+                    m,
+                    q,
+                    qd,
+                    start + k,
+                    &mut out[k..k + n],
+                    None,
+                    &mut [],
+                )
+            };
+            k += n;
+        }
+    }
+}
+
+/// [`forces`] for a measuring pass: each spring's length too, from which `sink` stores the strains span by
+/// span ([`SPAN`] springs from the chunk's start, as `spring::spring_chunk` stores them: the same spans in sparse mode),
+/// and where `els` is not empty (load limits) each spring's elastic pull into it. The springs the kernel leaves
+/// are formed here one by one with [`force_parts`].
+pub(super) fn measured<R: Real, const PROJECTED: bool>(
+    m: &Model<R>,
+    (q, qd): (&[R::V], &[R::V]),
+    start: usize,
+    out: &mut [R::V],
+    sink: &StrainSink<'_, R>,
+    els: &mut [R::V],
+) {
+    use crate::real::{as_f32, as_f32_mut};
+    let (xs, vs) = (as_f32(R::flat(q)), as_f32(R::flat(qd)));
+    let pulls = !els.is_empty();
+    assert!(!pulls || els.len() == out.len());
+    let mut l = [R::ZERO; SPAN];
+    let mut k0 = 0;
+    while k0 < out.len() {
+        let n = (out.len() - k0).min(SPAN);
+        let s0 = start + k0;
+        let (idx, rest) = (&m.spring_indices[s0..s0 + n], &m.spring_rest_length[s0..s0 + n]);
+        let (ks, kd) = (&m.spring_stiffness[s0..s0 + n], &m.spring_damping[s0..s0 + n]);
+        let mut k = 0;
+        while k < n {
+            let o = as_f32_mut(R::flat_mut(&mut out[k0 + k..k0 + n]));
+            let params = (as_f32(&rest[k..]), as_f32(&ks[k..]), as_f32(&kd[k..]));
+            let e = pulls.then(|| as_f32_mut(R::flat_mut(&mut els[k0 + k..k0 + n])));
+            // SAFETY: the CPU has AVX2 (the caller's test).
+            k += unsafe { springs::<PROJECTED>((xs, vs), &idx[k..], params, o, Some(as_f32_mut(&mut l[k..n])), e) };
+            // The block it stopped at (or the tail), one by one.
+            let left = (n - k).min(8);
+            for j in k..k + left {
+                let [a, b] = idx[j].map(|v| v as usize);
+                let (d, w) = ((q[b] - q[a]).to_array(), (qd[b] - qd[a]).to_array());
+                let (f, el, len) = force_parts::<R, PROJECTED>(d, w, rest[j], ks[j], kd[j]);
+                out[k0 + j] = R::V::new(f[0], f[1], f[2]);
+                if pulls {
+                    els[k0 + j] = R::V::new(el[0], el[1], el[2]);
+                }
+                l[j] = len;
+            }
+            k += left;
+        }
+        // SAFETY: springs `s0 .. s0 + n` are this chunk's alone (`par::chunks` partitions them).
+        unsafe { sink.store(s0, &l[..n], rest) };
+        k0 += n;
+    }
+}
 
 /// Springs `idx` (end indices) with their rest lengths, stiffnesses and damping coefficients, at positions `q`
 /// and velocities `qd` (3-vectors as flat components, `3n` values each): the force on each spring's end 0 into
