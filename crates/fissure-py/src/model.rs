@@ -50,7 +50,8 @@ impl Model {
     fn body_count(&self) -> usize {
         each!(&self.inner, m => m.body_count())
     }
-    /// Triangles, a new uint32 `(F, 3)` array.
+    /// Triangles, a new uint32 `(F, 3)` array: each body's from its `first_triangle`, ordered by their sorted
+    /// corners (a grid's in the grid's order).
     #[getter]
     fn triangles<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray2<u32>> {
         let tris = each!(&self.inner, m => &m.tri_indices);

@@ -209,8 +209,10 @@ impl ModelBuilder {
     /// Adds a closed soft body (a balloon: membrane springs on the edges, gas inside). The mesh must be closed
     /// when it has gas; an inward-facing mesh is flipped if `opts.reorient`, rejected otherwise.
     ///
-    /// Vertex `i` of the mesh becomes particle `handle.first_particle + i`, and its triangles keep their order:
-    /// the model steps fastest when neighbouring vertices have nearby indices. A mesh numbered without locality
+    /// Vertex `i` of the mesh becomes particle `handle.first_particle + i`; its triangles follow from
+    /// `handle.first_triangle` ordered by their sorted corners (a grid's keep the grid's order), so the triangles'
+    /// order follows the particles' whatever order the mesh lists them in. The model steps fastest when
+    /// neighbouring vertices have nearby indices. A mesh numbered without locality
     /// (vertices in random order) can be renumbered first with [`Mesh::renumbered_for_locality`].
     pub fn add_soft_body(&mut self, mesh: &Mesh, opts: &SoftBodyOptions) -> Result<BodyHandle, ModelError> {
         let mut mesh = mesh.clone();
@@ -421,7 +423,18 @@ impl ModelBuilder {
             let (nx, ny) = (g.nx as u32, g.ny as u32);
             self.tri_grids.push(super::TriGrid { first: first_triangle as u32, base, nx, ny });
         }
+        let from = self.tris.len();
         self.tris.extend(mesh.triangles().iter().map(|t| t.map(|v| v + base)));
+        if grid.is_none() {
+            // A body's triangles in the order of its particles: by their corners sorted (least first; winding
+            // kept, ties by the mesh's order). The fused springs-and-crosses pass hands each core a range of
+            // triangles and a range of springs that start at the same fraction of the body; in the mesh's own
+            // order (random, as some exporters leave it) each core's triangles touch every particle, and on two
+            // threads the gather then reads what the other core wrote (`benches/ball.rs`, issue 15: the
+            // 2,562-vertex ball with shuffled triangles 1.14–1.50x its own order on two threads before this,
+            // see `benches/RESULTS.md`). A grid keeps its order: its wind walks the cells by row.
+            self.tris[from..].sort_by_key(crate::mesh::sorted_corners);
+        }
         self.tri_body.extend(std::iter::repeat_n(body, mesh.triangle_count()));
 
         let tris = mesh.triangles();

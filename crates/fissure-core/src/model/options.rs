@@ -302,7 +302,8 @@ pub struct BodyHandle {
     pub first_particle: usize,
     /// Number of particles.
     pub particle_count: usize,
-    /// First triangle.
+    /// First triangle. The body's triangles follow, ordered by their sorted corners (a grid's in the grid's
+    /// order), not necessarily in the order its mesh listed them.
     pub first_triangle: usize,
 }
 
