@@ -45,12 +45,29 @@ impl<R: Real> ForceScratch<R> {
     /// [`ForceScratch::surface`] is then told to skip them (`crosses_formed`).
     pub fn springs_and_crosses(&mut self, m: &Model<R>, q: &[R::V], qd: &[R::V]) {
         match m.damping_model {
-            DampingModel::Projected => self.springs_and_crosses_with::<true>(m, q, qd),
-            DampingModel::Unprojected => self.springs_and_crosses_with::<false>(m, q, qd),
+            DampingModel::Projected => self.springs_and_crosses_with::<true, false>(m, q, qd),
+            DampingModel::Unprojected => self.springs_and_crosses_with::<false, false>(m, q, qd),
         }
     }
 
-    fn springs_and_crosses_with<const PROJECTED: bool>(&mut self, m: &Model<R>, q: &[R::V], qd: &[R::V]) {
+    /// [`ForceScratch::springs_measured`] and the surface pass's crosses in one hand-over, as
+    /// [`ForceScratch::springs_and_crosses`] does without measuring: a model that can break measures at every
+    /// step of symplectic Euler, and apart its surface pass's few triangle chunks (three on the 2,562-vertex ball)
+    /// and the caps over its openings left one core idle while the other formed them.
+    pub fn springs_measured_and_crosses(&mut self, m: &Model<R>, q: &[R::V], qd: &[R::V]) {
+        debug_assert!(self.measuring && !self.runs);
+        match m.damping_model {
+            DampingModel::Projected => self.springs_and_crosses_with::<true, true>(m, q, qd),
+            DampingModel::Unprojected => self.springs_and_crosses_with::<false, true>(m, q, qd),
+        }
+    }
+
+    fn springs_and_crosses_with<const PROJECTED: bool, const MEASURE: bool>(
+        &mut self,
+        m: &Model<R>,
+        q: &[R::V],
+        qd: &[R::V],
+    ) {
         let (nb, size) = (m.body_count(), par::piece(par::CHUNK));
         let rows = m.tri_count().div_ceil(par::CHUNK).max(1);
         let mut order = std::mem::take(&mut self.fused_order);
@@ -58,10 +75,19 @@ impl<R: Real> ForceScratch<R> {
         let ps = par::Pieces::new(&mut self.spring_f, size);
         let pc = par::Pieces::new(&mut self.tri_cross, par::CHUNK);
         let pv = par::Pieces::new(&mut self.vol_partials[..rows * nb], nb);
+        // Measuring: each spring's strain through the sink and (with load limits) its elastic pull into
+        // `spring_el`, piece by piece (empty pieces without load limits).
+        let over = self.sparse_strains.then_some(self.strain_over);
+        let sink = MEASURE.then(|| StrainSink::new(&mut self.strain, over, std::mem::take(&mut self.strain_spans)));
+        let el_len = if MEASURE { self.spring_el.len() } else { 0 };
+        let pe = par::Pieces::new(&mut self.spring_el[..el_len], size);
         let (nc, np) = (pc.count(), ps.count());
         debug_assert_eq!(order.len(), nc + np);
         let caps = super::pressure::CapPieces::new(&mut self.caps);
-        let ord = &order;
+        let (ord, sink_ref) = (&order, sink.as_ref());
+        // Spring piece `p`'s pulls: its own piece of `spring_el`, or none.
+        // SAFETY (for callers): each `p` once.
+        let els = |p: usize| if el_len == 0 { &mut [][..] } else { unsafe { pe.get(p) } };
         // SAFETY (both): `exec` runs each piece index once and `order` is a permutation of `0 .. nc + np`;
         // triangle chunks, spring pieces and the caps (`nc + np`) are numbered apart.
         if caps.count() == 0 {
@@ -73,7 +99,7 @@ impl<R: Real> ForceScratch<R> {
                     super::cross_chunk(m, q, true, k * par::CHUNK, pc.get(k), pv.get(k))
                 } else {
                     let p = k - nc;
-                    spring_chunk_dispatch::<R, PROJECTED, false>(m, q, qd, p * size, ps.get(p), None, &mut [])
+                    spring_chunk_dispatch::<R, PROJECTED, MEASURE>(m, q, qd, p * size, ps.get(p), sink_ref, els(p))
                 }
             });
         } else {
@@ -83,11 +109,15 @@ impl<R: Real> ForceScratch<R> {
                     super::cross_chunk(m, q, true, k * par::CHUNK, pc.get(k), pv.get(k))
                 } else if k < nc + np {
                     let p = k - nc;
-                    spring_chunk_dispatch::<R, PROJECTED, false>(m, q, qd, p * size, ps.get(p), None, &mut [])
+                    spring_chunk_dispatch::<R, PROJECTED, MEASURE>(m, q, qd, p * size, ps.get(p), sink_ref, els(p))
                 } else {
                     caps.run(m, q)
                 }
             });
+        }
+        if let Some(sink) = sink {
+            self.strain_spans = sink.finish();
+            self.strain_sparse = over.is_some();
         }
         self.fused_order = order;
     }
@@ -245,14 +275,16 @@ fn spring_pass_measured<R: Real, const PROJECTED: bool>(
     el_out: &mut [R::V],
 ) {
     let n = out.len();
+    // On the team in finer pieces, as the plain pass (each spring's results are its own: the same bits).
+    let size = par::piece(par::CHUNK);
     if el_out.is_empty() {
         // No load limit: the strains alone.
-        par::chunks(out, |start, chunk| {
+        par::chunks_of(size, out, |start, chunk| {
             spring_chunk_dispatch::<R, PROJECTED, true>(m, q, qd, start, chunk, Some(strain), &mut [])
         });
         return;
     }
-    par::chunks2(out, &mut el_out[..n], |start, chunk, els| {
+    par::chunks2_pooled(par::is_pooled(n), size, out, &mut el_out[..n], |start, chunk, els| {
         spring_chunk_dispatch::<R, PROJECTED, true>(m, q, qd, start, chunk, Some(strain), els)
     });
 }

@@ -345,16 +345,15 @@ impl<R: Real> CpuSolver<R> {
     fn forces(&mut self, m: &Model<R>, q: &[R::V], qd: &[R::V], time: f64) -> bool {
         let measure = std::mem::take(&mut self.measure_next) && self.f.measuring;
         let fuse = std::mem::take(&mut self.fuse_loads) && self.f.load.len() == q.len();
-        // On the team the surface pass's crosses run beside the springs (timed with them).
-        let crosses_formed = m.spring_count() > 0 && !measure && self.f.fuse_crosses(m);
+        // On the team the surface pass's crosses run beside the springs (timed with them), measuring or not.
+        let crosses_formed = m.spring_count() > 0 && self.f.fuse_crosses(m);
         if m.spring_count() > 0 {
             let t = Instant::now();
-            if measure {
-                self.f.springs_measured(m, q, qd);
-            } else if crosses_formed {
-                self.f.springs_and_crosses(m, q, qd);
-            } else {
-                self.f.springs(m, q, qd);
+            match (measure, crosses_formed) {
+                (true, true) => self.f.springs_measured_and_crosses(m, q, qd),
+                (true, false) => self.f.springs_measured(m, q, qd),
+                (false, true) => self.f.springs_and_crosses(m, q, qd),
+                (false, false) => self.f.springs(m, q, qd),
             }
             self.timers.add(Stage::Springs, t);
         }
