@@ -47,7 +47,8 @@ pub(super) unsafe fn crosses(
     // (Every other index is checked where it is used: the wide blocks' corners below, the rest by the slices.)
     assert!(bodies.len() == tris.len() && cross.len() == 4 * tris.len() && q.len() == 3 * n);
     let at = |i: u32| Vec3::from_slice(&q[3 * i as usize..3 * i as usize + 3]);
-    part.iter_mut().for_each(|p| *p = 0.0);
+    // Only gas bodies' partials are written and read (see `ForceScratch::surface`).
+    part.iter_mut().zip(gas).filter(|(_, g)| **g > 0.0).for_each(|(p, _)| *p = 0.0);
     let mut sum = VolumeSum::<f32>::new();
     // Triangle `k` the portable way.
     let one = |k: usize, sum: &mut VolumeSum<f32>, cross: &mut [f32], part: &mut [f32]| {
@@ -400,7 +401,10 @@ pub(super) mod tests {
             unsafe { super::crosses(f32::flat(&q), &tris, &bodies, (&gas, &anchors), true, &mut cross, &mut part) };
             let bits = |v: &[f32]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
             assert_eq!(bits(&cross), bits(&want_cross), "crosses, {len} triangles");
-            assert_eq!(bits(&part), bits(&want_part), "volume partials, {len} triangles");
+            // Bodies without gas have no partials (neither written nor read).
+            let gassy =
+                |v: &[f32]| v.iter().zip(&gas).filter(|(_, g)| **g > 0.0).map(|(x, _)| x.to_bits()).collect::<Vec<_>>();
+            assert_eq!(gassy(&part), gassy(&want_part), "volume partials, {len} triangles");
         }
     }
 

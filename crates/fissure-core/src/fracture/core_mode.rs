@@ -75,9 +75,11 @@ impl<R: Real> Fracture<R> {
             m.body_anchor[body as usize] = p[0];
         }
         self.delta.particles.push(v);
-        // The springs of the fan go with the block: the spokes v–p_i become v–c_i, each ring edge p_i–p_{i+1}
-        // (the rim of the hole, kept by the surface) gets a twin c_i–c_{i+1}. Springs that cross the fan or the
-        // rim (v's bending springs, and those between ring vertices that are not rim edges) break.
+        // The springs of the fan go with the block: the spokes v–p_i become v–c_i (each moves its end, keeping its
+        // place in the model: a broken spring left behind would still cost the spring pass its work every step),
+        // each ring edge p_i–p_{i+1} (the rim of the hole, kept by the surface) gets a twin c_i–c_{i+1}. Springs
+        // that cross the fan or the rim (v's bending springs, and those between ring vertices that are not rim
+        // edges) break.
         let params = |m: &Model<R>, sp: u32| {
             let u = sp as usize;
             let [a, b] = m.spring_indices[u];
@@ -92,7 +94,8 @@ impl<R: Real> Fracture<R> {
                 None => rims.push(spokes[i]),
             }
         }
-        let mut doomed: Vec<u32> = m.particle_springs.row(vu).iter().map(|&e| e >> 1).collect();
+        let mut doomed: Vec<u32> =
+            m.particle_springs.row(vu).iter().map(|&e| e >> 1).filter(|sp| !sv.contains(sp)).collect();
         for (i, &pi) in p.iter().enumerate() {
             let (prev, next) = (p[(i + k - 1) % k], p[(i + 1) % k]);
             for &e in m.particle_springs.row(pi as usize) {
@@ -109,6 +112,21 @@ impl<R: Real> Fracture<R> {
                 self.delta.springs.push(sp);
             }
         }
+        // Each spoke's end moves from p_i to c_i before p_i's mass changes (which would scale the springs still
+        // on it), its stiffness and damping scaled as a new spring's would be (`add_spring`).
+        for (i, &sp) in sv.iter().enumerate() {
+            let u = sp as usize;
+            let end = usize::from(m.spring_indices[u][0] != p[i]);
+            let e = (sp << 1) | end as u32;
+            m.spring_indices[u][end] = c[i];
+            m.particle_springs.remove(p[i] as usize, e);
+            m.particle_springs.push(c[i] as usize, e);
+            split_run(m, sp);
+            let (_, ks, (kd, red), _) = spokes[i];
+            let ratio = (reduced(m.particle_mass[vu], m.particle_mass[c[i] as usize]) / red).min(R::ONE);
+            (m.spring_stiffness[u], m.spring_damping[u], m.spring_kind[u]) = (ks * ratio, kd * ratio, SpringKind::Edge);
+            self.delta.springs.push(sp);
+        }
         for (i, &(rest, _)) in shares.iter().enumerate() {
             self.set_mass(m, p[i] as usize, rest);
         }
@@ -116,8 +134,6 @@ impl<R: Real> Fracture<R> {
             set_tri(m, t, [v, c[i], c[(i + 1) % k]]);
             m.tri_body[t as usize] = core_body;
             self.delta.triangles.push(t);
-            let (l0, ks, kd, lim) = spokes[i];
-            add_spring(m, v, c[i], l0, ks, kd, lim);
             let (l0, ks, kd, lim) = rims[i];
             add_spring(m, c[i], c[(i + 1) % k], l0, ks, kd, lim);
         }
