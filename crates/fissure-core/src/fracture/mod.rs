@@ -44,7 +44,8 @@
 //! contact with an obstacle or a sharp dent: where a chunk is punched out. The core block is `v`'s whole one-ring:
 //! its fan triangles `(v, p_i, p_{i+1})` go to a new body with copies `c_i` of the ring vertices (each taking
 //! the share of `p_i`'s mass its two fan triangles lumped on it, and `p_i`'s velocity: mass and momentum exact),
-//! the spokes `v–c_i` and a twin `c_i–c_{i+1}` of each rim spring; the surface keeps the ring `p_i` and its rim
+//! the spokes, each moving its end from `p_i` to `c_i` (the same spring, kept in its place in the model), and a
+//! twin `c_i–c_{i+1}` of each rim spring; the surface keeps the ring `p_i` and its rim
 //! springs around a hole the size of the block. Springs that crossed the fan or the rim (`v`'s bending springs,
 //! and those between ring vertices that are not rim edges) break. The ring vertices become crack tips: the
 //! stress at a hole's rim can start cracks.
