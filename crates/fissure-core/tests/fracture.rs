@@ -682,3 +682,62 @@ fn sparse_strains_find_what_every_strain_finds() {
         assert_eq!(deltas[0], deltas[1], "grid {grid}");
     }
 }
+
+/// Core splits give a ball's fan triangles to new bodies where they lie; once enough have moved (one in 64 of the
+/// triangles) on a model past one chunk of the surface pass, the fracture pass orders the triangles by body again
+/// (the blocks' after the ball's) and says so (`delta.whole`). The reorder keeps every triangle and its body, the
+/// invariants, and the forces (f64: the same sums in another order, to rounding).
+#[test]
+fn core_blocks_triangles_are_ordered_after_the_ball() {
+    let mut b = ModelBuilder::new();
+    let opts = SoftBodyOptions {
+        mass: Mass::Total(0.4),
+        gas: Gas::Amount(200.0),
+        fracture: Some(Breakable { strain_limit: f64::INFINITY, load_limit: 1e9, sealed: true, ..Default::default() }),
+        ..Default::default()
+    };
+    b.add_soft_body(&Mesh::icosphere(0.25, 4), &opts).unwrap();
+    let mut m: Model<f64> = b.finalize().unwrap();
+    let (mut s, mut f) = (m.state(), Fracture::<f64>::default());
+    let nt = m.tri_count();
+    assert!(nt > 2048);
+    let sorted_blocks = |m: &Model<f64>| m.tri_body.is_sorted();
+    let (mut splits, mut wholes, mut v, mut last_whole) = (0, 0, 0, false);
+    while splits < 40 {
+        let d = f.break_core(&mut m, &mut s, v);
+        v += 17;
+        if d.events.is_empty() {
+            continue;
+        }
+        splits += 1;
+        check_invariants(&m).unwrap();
+        last_whole = d.whole;
+        if d.whole {
+            wholes += 1;
+            assert!(sorted_blocks(&m), "split {splits}: reordered, yet some block's triangles lie among the ball's");
+        }
+    }
+    // 40 splits of five or six triangles each (~235), one reorder per 80 (5,120 / 64) moved: two or three.
+    assert!((2..=3).contains(&wholes), "{wholes} reorders in 40 core splits");
+    if !last_whole {
+        assert!(!sorted_blocks(&m), "the last splits' triangles wait for the next reorder");
+    }
+    // The reorder by hand: the same triangles with the same bodies, grouped, and the same forces.
+    let mut r = m.clone();
+    assert!(r.order_triangles_by_body());
+    assert!(sorted_blocks(&r) && !r.order_triangles_by_body(), "ordered once, then nothing to move");
+    check_invariants(&r).unwrap();
+    let tris = |m: &Model<f64>| {
+        let mut t: Vec<([u32; 3], u32)> = m.tri_indices.iter().copied().zip(m.tri_body.iter().copied()).collect();
+        t.sort_unstable();
+        t
+    };
+    assert_eq!(tris(&m), tris(&r));
+    assert_ne!(m.tri_indices, r.tri_indices);
+    let (mut fm, mut fr) = (vec![DVec3::ZERO; m.particle_count()], vec![DVec3::ZERO; m.particle_count()]);
+    CpuSolver::<f64>::default().compute_forces(&m, &s, &mut fm).unwrap();
+    CpuSolver::<f64>::default().compute_forces(&r, &s, &mut fr).unwrap();
+    let scale = fm.iter().map(|x| x.length()).fold(0.0, f64::max);
+    let worst = fm.iter().zip(&fr).map(|(a, b)| (*a - *b).length()).fold(0.0, f64::max);
+    assert!(scale > 0.0 && worst <= 1e-12 * scale, "forces differ by {worst} N (largest {scale} N)");
+}

@@ -133,6 +133,7 @@ impl<R: Real> Fracture<R> {
         for (i, &(t, _, _)) in ring.iter().enumerate() {
             set_tri(m, t, [v, c[i], c[(i + 1) % k]]);
             m.tri_body[t as usize] = core_body;
+            self.rebodied += 1;
             self.delta.triangles.push(t);
             let (l0, ks, kd, lim) = rims[i];
             add_spring(m, c[i], c[(i + 1) % k], l0, ks, kd, lim);

@@ -79,6 +79,7 @@ impl<R: Real> Fracture<R> {
             m.particle_body[x as usize] = nb;
             for &t in m.particle_tris.row(x as usize) {
                 m.tri_body[t as usize] = nb;
+                self.rebodied += 1;
                 self.delta.triangles.push(t);
             }
             self.delta.particles.push(x);

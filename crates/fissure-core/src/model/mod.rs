@@ -410,6 +410,33 @@ impl<R: Real> Model<R> {
         self.breakable = self.compute_breakable();
     }
 
+    /// Orders the triangles by body, stably (each body's in their order), as a builder lays them out; returns
+    /// whether any moved (a solver or mirror then needs [`crate::fracture::TopologyDelta::whole`]). The particle →
+    /// triangle rows are renumbered in place (their order and room kept). The fracture pass calls it once enough
+    /// triangles went to new bodies where they lay (see `Fracture`'s docs); the physics is the same, its sums in
+    /// another order.
+    pub fn order_triangles_by_body(&mut self) -> bool {
+        if self.tri_body.is_sorted() {
+            return false;
+        }
+        let mut order: Vec<u32> = (0..self.tri_count() as u32).collect();
+        order.sort_by_key(|&t| self.tri_body[t as usize]);
+        let mut new_of_old = vec![0u32; order.len()];
+        for (new, &old) in order.iter().enumerate() {
+            new_of_old[old as usize] = new as u32;
+        }
+        self.tri_indices = order.iter().map(|&t| self.tri_indices[t as usize]).collect();
+        self.tri_body = order.iter().map(|&t| self.tri_body[t as usize]).collect();
+        let c = &mut self.particle_tris;
+        for i in 0..c.len.len() {
+            let s = c.start[i] as usize;
+            for t in &mut c.items[s..s + c.len[i] as usize] {
+                *t = new_of_old[*t as usize];
+            }
+        }
+        true
+    }
+
     /// Reserves room for `particles`, `springs` and `triangles` more (fracture appends them), so that growing
     /// does not reallocate mid-simulation.
     pub fn reserve(&mut self, particles: usize, springs: usize, triangles: usize) {
