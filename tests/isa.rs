@@ -3,7 +3,7 @@
 //! kernel), the fracture scene (the update summing loads, the caps over openings), a grid cloth under symplectic Euler (the fused grid-run spring kernel and the update after it) and
 //! under implicit Euler (the solver's runs), a grid cloth dropped onto the ground and a ball (the collision pass's
 //! blocks in lanes, fused with the run kernel), a pressurised ball with pinned particles (the update eight particles
-//! at a time), each run once per set this CPU has, their final states compared
+//! at a time), the same in wind (that update with the wind pass's corner forces), each run once per set this CPU has, their final states compared
 //! bit for bit. One test in its own binary: the cap it sets holds for the whole process.
 
 use fissure::isa::{self, Isa};
@@ -52,12 +52,26 @@ fn draped_cloth() -> Vec<u32> {
 /// strains the fracture trigger reads: springs split) and the update eight particles at a time with its gas push
 /// and pinned lanes (`forces::gather_avx2`), the ball's 642 particles in 80 whole blocks and a tail of two.
 fn pinned_ball() -> Vec<u32> {
+    pinned_ball_in(false)
+}
+
+/// [`pinned_ball`] in the default wind: the update eight particles at a time with the wind pass's per-triangle
+/// corner forces (gas included) in place of the gas push.
+fn pinned_ball_in_wind() -> Vec<u32> {
+    pinned_ball_in(true)
+}
+
+fn pinned_ball_in(wind: bool) -> Vec<u32> {
     let mut b = ModelBuilder::new();
     let fracture = Some(Breakable { strain_limit: 0.12, ..Default::default() });
-    let opts = SoftBodyOptions { gas: Gas::Pressure(2000.0), fracture, ..Default::default() };
+    let aero = if wind { Aero::default() } else { Aero::NONE };
+    let opts = SoftBodyOptions { gas: Gas::Pressure(2000.0), fracture, aero, ..Default::default() };
     let ball = Mesh::icosphere(0.2, 3).translated(fissure::glam::DVec3::new(0.0, 0.25, 0.0));
     b.add_soft_body(&ball, &opts).expect("ball builds");
     b.add_collider(Collider::ground(0.0)).expect("ground");
+    if wind {
+        b.wind(WindField::default()).expect("wind");
+    }
     let mut model: Model<f32> = b.finalize().expect("ball finalizes");
     for i in [0, 100, 641] {
         model.particle_inv_mass[i] = 0.0;
@@ -73,7 +87,7 @@ fn every_instruction_set_gives_the_same_bits() {
     let sets = isa::available();
     assert_eq!(sets[0], Isa::Baseline);
     type Run = (&'static str, fn() -> Vec<u32>);
-    let runs: [Run; 8] = [
+    let runs: [Run; 9] = [
         ("cloth_wind.toml", || scene("cloth_wind.toml")),
         // A breakable grid: the run kernel measures its springs' strains every step.
         ("cloth_tear.toml", || scene("cloth_tear.toml")),
@@ -84,6 +98,7 @@ fn every_instruction_set_gives_the_same_bits() {
         ("24² cloth, implicit Euler", || grid_cloth(Integrator::ImplicitEuler, 0.25, 1.0 / 60.0)),
         ("40² cloth on the ground and a ball", draped_cloth),
         ("a pressurised ball with pinned particles", pinned_ball),
+        ("a pressurised ball with pinned particles in wind", pinned_ball_in_wind),
     ];
     for (name, run) in runs {
         let mut first: Option<(Isa, Vec<u32>)> = None;

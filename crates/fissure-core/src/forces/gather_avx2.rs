@@ -13,8 +13,8 @@
 //!
 //! The same bits as the portable gather: each lane adds its particle's entries in its row's order, with
 //! `particle_force`'s and the update's operations in their order, no fused multiply-adds. Blocks whose rows
-//! read the last spring (whose 16-byte load would pass the end of the forces) and the particles after the last
-//! whole block go the portable way.
+//! read the last spring (whose 16-byte load would pass the end of the forces), with wind the last triangle (the
+//! same for its 12-byte corner forces), and the particles after the last whole block go the portable way.
 
 use std::arch::x86_64::*;
 
@@ -48,6 +48,9 @@ pub(crate) struct Ell {
     tris: Vec<u32>,
     /// Each triangle entry's cross as an offset into the crosses' `f32`s (`4 triangle`; 0 for padding).
     tri_at: Vec<u32>,
+    /// With wind: each triangle entry's corner force as an offset into the forces' `f32`s (`3 triangle`, the
+    /// 12-byte `ForceScratch::tri_f`; 0 for padding); empty without wind.
+    tri_f_at: Vec<u32>,
     /// Per block: whether it may go wide (no entry is the last spring).
     wide: Vec<bool>,
 }
@@ -76,8 +79,13 @@ impl Ell {
             let springs = &e.springs[s0 as usize..(s0 + 8 * k) as usize];
             e.spring_at.extend(springs.iter().map(|&x| if x == PAD { 0 } else { 3 * (x >> 1) }));
             let (t0, kt) = e.tri_cols[b];
-            e.tri_at
-                .extend(e.tris[t0 as usize..(t0 + 8 * kt) as usize].iter().map(|&x| if x == PAD { 0 } else { 4 * x }));
+            let tris = &e.tris[t0 as usize..(t0 + 8 * kt) as usize];
+            e.tri_at.extend(tris.iter().map(|&x| if x == PAD { 0 } else { 4 * x }));
+            if m.has_wind() {
+                // A corner force's 16-byte load reads one value past it: not the last triangle's.
+                e.tri_f_at.extend(tris.iter().map(|&x| if x == PAD { 0 } else { 3 * x }));
+                wide &= tris.iter().all(|&x| x == PAD || x as usize + 1 < nt);
+            }
             wide &=
                 e.springs[s0 as usize..(s0 + 8 * k) as usize].iter().all(|&x| x == PAD || (x >> 1) as usize + 1 < ns);
             e.wide.push(wide);
@@ -88,6 +96,11 @@ impl Ell {
     /// Whether it was built for `m`'s counts.
     pub(crate) fn fits<R: Real>(&self, m: &Model<R>) -> bool {
         self.shape == (m.particle_count(), m.spring_count(), m.tri_count())
+    }
+
+    /// Whether it holds the corner forces' offsets (built for a model with wind).
+    pub(crate) fn has_wind(&self) -> bool {
+        self.tri_f_at.len() == self.tris.len()
     }
 
     /// Whether block `b` (particles `8b .. 8b + 8`) exists and may go wide.
@@ -105,6 +118,9 @@ pub(crate) struct Inputs<'a> {
     pub spring_f: &'a [f32],
     /// With gas (and no wind): the crosses (4 values a triangle) and each body's `P / 6`.
     pub cross: Option<(&'a [f32], &'a [f32])>,
+    /// With wind (the wind pass's per-triangle corner forces, gas included: `ForceScratch::tri_f`, 3 values a
+    /// triangle): added in row order, as `forces::add_corners` does.
+    pub wind: Option<&'a [f32]>,
     /// With caps over openings: each particle's cap gradient (`pressure::Caps::g`, 3 values a particle) and each
     /// body's pressure.
     pub caps: Option<(&'a [f32], &'a [f32])>,
@@ -119,7 +135,7 @@ pub(crate) struct Inputs<'a> {
 }
 
 /// Block `b` of [`Ell`] (particles `8b .. 8b + 8`): each particle's force (gravity, its springs in row order,
-/// then its gas push `P/6 Σ cross`, then its caps' `P g`), then `v += f (w dt)`, `x += v dt` where its inverse
+/// then with wind its triangles' corner forces in row order, or its gas push `P/6 Σ cross`, then its caps' `P g`), then `v += f (w dt)`, `x += v dt` where its inverse
 /// mass `w` is not 0. `q` and `v`: the block's 24 position and velocity values. With `x.loads`, each particle's
 /// load (`|Σ ± pull + P/6 Σ cross|` where its limit is finite, else 0) into `load` (8 values). Returns whether a
 /// value it wrote is not finite.
@@ -205,6 +221,21 @@ pub(crate) unsafe fn block(x: &Inputs<'_>, b: usize, q: *mut f32, v: *mut f32, l
             };
         }
         f = (_mm256_add_ps(f.0, term!(vx)), _mm256_add_ps(f.1, term!(vy)), _mm256_add_ps(f.2, term!(vz)));
+    }
+    if let Some(tf) = x.wind {
+        let (t0, kt) = e.tri_cols[b];
+        assert!(
+            tf.len() == 3 * e.shape.2 && e.has_wind() && (t0 + 8 * kt) as usize <= e.tris.len().min(e.tri_f_at.len())
+        );
+        for k in 0..kt {
+            let (_, is_pad, (wx, wy, wz)) = column!(e.tris, e.tri_f_at, (t0 + 8 * k) as usize, tf);
+            macro_rules! term {
+                ($a:expr) => {
+                    _mm256_blendv_ps($a, neg0, is_pad)
+                };
+            }
+            f = (_mm256_add_ps(f.0, term!(wx)), _mm256_add_ps(f.1, term!(wy)), _mm256_add_ps(f.2, term!(wz)));
+        }
     }
     if let Some((cross, p6)) = x.cross {
         let (t0, kt) = e.tri_cols[b];

@@ -76,9 +76,10 @@ fn gather_work<R: Real>(m: &Model<R>, surface: bool) -> usize {
 }
 
 /// The inputs of the symplectic Euler update eight particles at a time (`forces::gather_avx2`) where it serves:
-/// `f32` on AVX2 with the per-spring kernel (its blocks built: `ForceScratch::ell`), and the surface's forces (if
-/// any) the gas's and its caps' alone (with wind the portable gather sums the triangles' forces). `loads`: a
-/// measuring step's, which sums each particle's load beside its force.
+/// `f32` on AVX2 with the per-spring kernel (its blocks built: `ForceScratch::ell`); the surface's forces (if any)
+/// the gas's crosses and caps, or with wind the wind pass's per-triangle corner forces (not a grid's per-particle
+/// sums: a grid cloth steps on the run kernel anyway). `loads`: a measuring step's, which sums each particle's load
+/// beside its force (never with wind: `fuse_loads`).
 #[cfg(target_arch = "x86_64")]
 fn wide_inputs<'a, R: Real>(
     m: &'a Model<R>,
@@ -89,14 +90,21 @@ fn wide_inputs<'a, R: Real>(
 ) -> Option<gather_avx2::Inputs<'a>> {
     use crate::real::{as_f32, va_as_f32};
     let f32 = std::any::TypeId::of::<R>() == std::any::TypeId::of::<f32>();
-    if !f32 || f.runs || !f.ell.fits(m) || (surface && (f.tri_f_written || !m.has_pressure())) {
+    // With wind the triangles' corner forces (gas included) are the wind pass's `tri_f`, unless a grid's pass
+    // summed them per particle.
+    let wind = surface && f.tri_f_written;
+    if !f32 || f.runs || !f.ell.fits(m) || (wind && (f.grid_plan.is_some() || !f.ell.has_wind())) {
+        return None;
+    }
+    if surface && !wind && !m.has_pressure() {
         return None;
     }
     let g = m.gravity.to_vec3();
     Some(gather_avx2::Inputs {
         ell: &f.ell,
         spring_f: as_f32(R::flat(&f.spring_f)),
-        cross: surface.then(|| (va_as_f32::<R>(&f.tri_cross), as_f32(&f.body_p6))),
+        cross: (surface && !wind).then(|| (va_as_f32::<R>(&f.tri_cross), as_f32(&f.body_p6))),
+        wind: wind.then(|| as_f32(R::flat(&f.tri_f))),
         caps: (surface && !f.caps.g.is_empty()).then(|| (as_f32(R::flat(&f.caps.g)), as_f32(&f.body_pressure))),
         loads: loads.then(|| (as_f32(R::flat(&f.spring_el)), as_f32(&m.particle_load_limit))),
         body: &m.particle_body,
