@@ -222,34 +222,34 @@ pub(crate) unsafe fn block(x: &Inputs<'_>, b: usize, q: *mut f32, v: *mut f32, l
         }
         f = (_mm256_add_ps(f.0, term!(vx)), _mm256_add_ps(f.1, term!(vy)), _mm256_add_ps(f.2, term!(vz)));
     }
+    // `$acc` plus the block's triangle columns of `$base` (each entry read at its offset in `$offs`), each lane in
+    // its row's order, a padding entry as `-0`: the wind's corner forces into the force, or the gas's crosses
+    // into their sum.
+    let (t0, kt) = e.tri_cols[b];
+    macro_rules! plus_tri_columns {
+        ($acc:expr, $offs:expr, $base:expr) => {{
+            let mut a = $acc;
+            for k in 0..kt {
+                let (_, is_pad, (cx, cy, cz)) = column!(e.tris, $offs, (t0 + 8 * k) as usize, $base);
+                macro_rules! term {
+                    ($v:expr) => {
+                        _mm256_blendv_ps($v, neg0, is_pad)
+                    };
+                }
+                a = (_mm256_add_ps(a.0, term!(cx)), _mm256_add_ps(a.1, term!(cy)), _mm256_add_ps(a.2, term!(cz)));
+            }
+            a
+        }};
+    }
     if let Some(tf) = x.wind {
-        let (t0, kt) = e.tri_cols[b];
         assert!(
             tf.len() == 3 * e.shape.2 && e.has_wind() && (t0 + 8 * kt) as usize <= e.tris.len().min(e.tri_f_at.len())
         );
-        for k in 0..kt {
-            let (_, is_pad, (wx, wy, wz)) = column!(e.tris, e.tri_f_at, (t0 + 8 * k) as usize, tf);
-            macro_rules! term {
-                ($a:expr) => {
-                    _mm256_blendv_ps($a, neg0, is_pad)
-                };
-            }
-            f = (_mm256_add_ps(f.0, term!(wx)), _mm256_add_ps(f.1, term!(wy)), _mm256_add_ps(f.2, term!(wz)));
-        }
+        f = plus_tri_columns!(f, e.tri_f_at, tf);
     }
     if let Some((cross, p6)) = x.cross {
-        let (t0, kt) = e.tri_cols[b];
         assert!(cross.len() == 4 * e.shape.2 && (t0 + 8 * kt) as usize <= e.tris.len().min(e.tri_at.len()));
-        let mut s = (z, z, z);
-        for k in 0..kt {
-            let (_, is_pad, (cx, cy, cz)) = column!(e.tris, e.tri_at, (t0 + 8 * k) as usize, cross);
-            macro_rules! term {
-                ($a:expr) => {
-                    _mm256_blendv_ps($a, neg0, is_pad)
-                };
-            }
-            s = (_mm256_add_ps(s.0, term!(cx)), _mm256_add_ps(s.1, term!(cy)), _mm256_add_ps(s.2, term!(cz)));
-        }
+        let s = plus_tri_columns!((z, z, z), e.tri_at, cross);
         assert!(x.body[i0..i0 + 8].iter().all(|&b| (b as usize) < p6.len()), "a particle's body out of range");
         // SAFETY: every body is below `p6.len()` (asserted just above).
         let p = unsafe { _mm256_i32gather_ps::<4>(p6.as_ptr(), bodies) };

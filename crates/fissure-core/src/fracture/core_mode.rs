@@ -116,12 +116,7 @@ impl<R: Real> Fracture<R> {
         // on it), its stiffness and damping scaled as a new spring's would be (`add_spring`).
         for (i, &sp) in sv.iter().enumerate() {
             let u = sp as usize;
-            let end = usize::from(m.spring_indices[u][0] != p[i]);
-            let e = (sp << 1) | end as u32;
-            m.spring_indices[u][end] = c[i];
-            m.particle_springs.remove(p[i] as usize, e);
-            m.particle_springs.push(c[i] as usize, e);
-            split_run(m, sp);
+            move_spring_end(m, sp, usize::from(m.spring_indices[u][0] != p[i]), c[i]);
             let (_, ks, (kd, red), _) = spokes[i];
             let ratio = (reduced(m.particle_mass[vu], m.particle_mass[c[i] as usize]) / red).min(R::ONE);
             (m.spring_stiffness[u], m.spring_damping[u], m.spring_kind[u]) = (ks * ratio, kd * ratio, SpringKind::Edge);

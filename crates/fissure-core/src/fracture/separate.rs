@@ -44,10 +44,7 @@ impl<R: Real> Fracture<R> {
                 (0..k).min_by(|&x, &y| centres[x].distance(xw).total_cmp(&centres[y].distance(xw))).unwrap_or(0)
             });
             if j != 0 {
-                m.spring_indices[sp][end] = copies[j];
-                m.particle_springs.remove(vu, e);
-                m.particle_springs.push(copies[j] as usize, e);
-                split_run(m, sp as u32);
+                move_spring_end(m, sp as u32, end, copies[j]);
                 self.delta.springs.push(sp as u32);
             }
         }

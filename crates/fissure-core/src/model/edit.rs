@@ -216,6 +216,15 @@ pub(crate) fn break_spring<R: Real>(m: &mut Model<R>, sp: u32) {
     m.spring_strain_limit[s] = R::infinity();
 }
 
+/// Moves end `end` (0 or 1) of spring `sp` to particle `to`: its index, both particles' rows, its run.
+pub(crate) fn move_spring_end<R: Real>(m: &mut Model<R>, sp: u32, end: usize, to: u32) {
+    let (s, e) = (sp as usize, (sp << 1) | end as u32);
+    let from = std::mem::replace(&mut m.spring_indices[s][end], to);
+    m.particle_springs.remove(from as usize, e);
+    m.particle_springs.push(to as usize, e);
+    split_run(m, sp);
+}
+
 pub(crate) fn set_tri<R: Real>(m: &mut Model<R>, t: u32, new: [u32; 3]) {
     let old = m.tri_indices[t as usize];
     for v in old {
