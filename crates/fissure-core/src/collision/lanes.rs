@@ -176,41 +176,100 @@ fn blend(m: u32, a: f32, b: f32) -> f32 {
     f32::from_bits((a.to_bits() & m) | (b.to_bits() & !m))
 }
 
-/// A whole block's positions and velocities (`q`, `qd`: `LANES` 3-vectors as flat `f32` components) into `b`'s
-/// per-component arrays with two-source permutes (`isa::vec3x16`), and the box of its positions: per component
-/// the least and greatest value, NaN ignored as `f32::min` and `f32::max` ignore it (`+∞`/`-∞` if every value is
-/// NaN), so the same box as the scalar loop's. The transposition and box were a third of the collision pass's
-/// time (`perf`, the 128² cloth draped over the ground and a ball, 2026-11-27).
+/// A whole block's positions (`q`: `LANES` 3-vectors as flat `f32` components) into `b.x` per component with
+/// two-source permutes (`isa::vec3x16`), and the box of its positions: per component the least and greatest value,
+/// NaN ignored as `f32::min` and `f32::max` ignore it (`+∞`/`-∞` if every value is NaN), so the same box as the
+/// scalar loop's. The transposition and box were a third of the collision pass's time (`perf`, the 128² cloth
+/// draped over the ground and a ball, 2026-11-27). The velocities are transposed apart ([`load_velocities`]), only
+/// for the blocks a collider may reach (most blocks of a ball above the ground reach none), and the box is reduced
+/// with the three components side by side and returned as one 16-byte value: reduced one component at a time and
+/// returned as six scalars, it made the caller's first read of it wait for the reductions and a failed
+/// store-to-load forwarding, ~37 % of the collision pass's own samples (`perf annotate`, the 2,562-vertex ball
+/// after 100 core splits, one thread, 2026-11-29).
 ///
 /// # Safety
 /// The CPU has AVX-512 F and VL.
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx512f,avx512vl")]
-pub(crate) unsafe fn load_block(q: &[f32], qd: &[f32], b: &mut Lanes) -> ([f32; 3], [f32; 3]) {
+pub(crate) unsafe fn load_positions(q: &[f32], b: &mut Lanes) -> ([f32; 4], [f32; 4]) {
     use crate::isa::vec3x16::{load3, split};
     use std::arch::x86_64::*;
-    assert!(q.len() == 3 * LANES && qd.len() == 3 * LANES);
+    assert!(q.len() == 3 * LANES);
     let (mut lo, mut hi) = ([_mm512_set1_ps(f32::INFINITY); 3], [_mm512_set1_ps(f32::NEG_INFINITY); 3]);
     for h in 0..LANES / 16 {
-        // SAFETY: 48 values from 48 h, within the asserted lengths; AVX-512 F (the target features).
-        let (x, v) = unsafe { (split(load3(q, 48 * h, None)), split(load3(qd, 48 * h, None))) };
+        // SAFETY: 48 values from 48 h, within the asserted length; AVX-512 F (the target features).
+        let x = unsafe { split(load3(q, 48 * h, None)) };
         for e in 0..3 {
-            // SAFETY: `b.x[e]` and `b.v[e]` hold `LANES` values.
-            unsafe {
-                _mm512_storeu_ps(b.x[e].as_mut_ptr().add(16 * h), x[e]);
-                _mm512_storeu_ps(b.v[e].as_mut_ptr().add(16 * h), v[e]);
-            }
+            // SAFETY: `b.x[e]` holds `LANES` values.
+            unsafe { _mm512_storeu_ps(b.x[e].as_mut_ptr().add(16 * h), x[e]) };
             // `min(x, lo)` is `lo` where `x` is NaN: NaN is ignored.
             lo[e] = _mm512_min_ps(x[e], lo[e]);
             hi[e] = _mm512_max_ps(x[e], hi[e]);
         }
     }
-    let min = [_mm512_reduce_min_ps(lo[0]), _mm512_reduce_min_ps(lo[1]), _mm512_reduce_min_ps(lo[2])];
-    (min, [_mm512_reduce_max_ps(hi[0]), _mm512_reduce_max_ps(hi[1]), _mm512_reduce_max_ps(hi[2])])
+    // No lane of `lo` or `hi` is NaN, so the order of the reduction does not change the least and greatest value.
+    let (mut l, mut h) = ([0.0f32; 4], [0.0f32; 4]);
+    // SAFETY: 16 bytes each; AVX-512 F (the target features).
+    unsafe {
+        _mm_storeu_ps(l.as_mut_ptr(), reduce3::<true>(lo));
+        _mm_storeu_ps(h.as_mut_ptr(), reduce3::<false>(hi));
+    }
+    (l, h)
+}
+
+/// The least (`MIN`) or greatest value of each of three registers, as lanes 0, 1, 2 of one (lane 3: lane 2's).
+/// Written without closures: a closure does not take the caller's target features, and the intrinsics in one
+/// were calls (the collision pass 7× slower).
+#[cfg(target_arch = "x86_64")]
+#[inline(always)]
+unsafe fn reduce3<const MIN: bool>(v: [std::arch::x86_64::__m512; 3]) -> std::arch::x86_64::__m128 {
+    use std::arch::x86_64::*;
+    // SAFETY: AVX-512 F (the caller's target features).
+    unsafe {
+        let mut q = [_mm_setzero_ps(); 3];
+        for e in 0..3 {
+            let (a, b) =
+                (_mm512_castps512_ps256(v[e]), _mm256_castpd_ps(_mm512_extractf64x4_pd::<1>(_mm512_castps_pd(v[e]))));
+            let h = if MIN { _mm256_min_ps(a, b) } else { _mm256_max_ps(a, b) };
+            let (a, b) = (_mm256_castps256_ps128(h), _mm256_extractf128_ps::<1>(h));
+            q[e] = if MIN { _mm_min_ps(a, b) } else { _mm_max_ps(a, b) };
+        }
+        // Four lanes of x, y, z each → (x, y, z, z) per lane, then the four lanes' values against each other.
+        let (xy_lo, xy_hi) = (_mm_unpacklo_ps(q[0], q[1]), _mm_unpackhi_ps(q[0], q[1]));
+        let (zz_lo, zz_hi) = (_mm_unpacklo_ps(q[2], q[2]), _mm_unpackhi_ps(q[2], q[2]));
+        let (c0, c1) = (_mm_movelh_ps(xy_lo, zz_lo), _mm_movehl_ps(zz_lo, xy_lo));
+        let (c2, c3) = (_mm_movelh_ps(xy_hi, zz_hi), _mm_movehl_ps(zz_hi, xy_hi));
+        if MIN {
+            _mm_min_ps(_mm_min_ps(c0, c1), _mm_min_ps(c2, c3))
+        } else {
+            _mm_max_ps(_mm_max_ps(c0, c1), _mm_max_ps(c2, c3))
+        }
+    }
+}
+
+/// A whole block's velocities (`qd`, as [`load_positions`] reads `q`) into `b.v` per component.
+///
+/// # Safety
+/// The CPU has AVX-512 F and VL.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx512f,avx512vl")]
+pub(crate) unsafe fn load_velocities(qd: &[f32], b: &mut Lanes) {
+    use crate::isa::vec3x16::{load3, split};
+    use std::arch::x86_64::*;
+    assert!(qd.len() == 3 * LANES);
+    for h in 0..LANES / 16 {
+        // SAFETY: 48 values from 48 h, within the asserted length; `b.v[e]` holds `LANES` values.
+        unsafe {
+            let v = split(load3(qd, 48 * h, None));
+            for e in 0..3 {
+                _mm512_storeu_ps(b.v[e].as_mut_ptr().add(16 * h), v[e]);
+            }
+        }
+    }
 }
 
 /// Writes back the lanes of `b` that a collider pushed (`b.hit`) and whose particle moves (`inv_mass` not zero)
-/// into `q`, `qd` (as [`load_block`] reads them), the others left as they are; true if a written lane is not
+/// into `q`, `qd` (as [`load_positions`] and [`load_velocities`] read them), the others left as they are; true if a written lane is not
 /// finite. The scalar write-back's values and its test, lane for lane.
 ///
 /// # Safety
@@ -234,7 +293,7 @@ pub(crate) unsafe fn store_block(b: &Lanes, inv_mass: &[f32], q: &mut [f32], qd:
         if write == 0 {
             continue;
         }
-        // SAFETY: as in `load_block`.
+        // SAFETY: as in `load_positions`.
         unsafe {
             let (x0, v0) = (split(load3(q, 48 * h, None)), split(load3(qd, 48 * h, None)));
             let (mut x, mut v) = (x0, v0);
@@ -288,10 +347,12 @@ mod tests {
         }
         let mut q: Vec<f32> = (0..3 * LANES).map(|i| ((i as f32) * 0.37).sin()).collect();
         let qd: Vec<f32> = (0..3 * LANES).map(|i| ((i as f32) * 0.91).cos()).collect();
-        q[7] = f32::NAN;
+        (q[7], q[20], q[43]) = (f32::NAN, f32::INFINITY, f32::NEG_INFINITY);
         let mut b = Lanes::new();
         // SAFETY: AVX-512 (checked above).
-        let (lo, hi) = unsafe { load_block(&q, &qd, &mut b) };
+        let (lo, hi) = unsafe { load_positions(&q, &mut b) };
+        // SAFETY: as above.
+        unsafe { load_velocities(&qd, &mut b) };
         let (mut slo, mut shi) = (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY));
         for k in 0..LANES {
             let x = Vec3::new(q[3 * k], q[3 * k + 1], q[3 * k + 2]);
@@ -301,7 +362,7 @@ mod tests {
                 assert_eq!(b.v[e][k].to_bits(), qd[3 * k + e].to_bits());
             }
         }
-        assert_eq!((lo, hi), (slo.to_array(), shi.to_array()));
+        assert_eq!((&lo[..3], &hi[..3]), (&slo.to_array()[..], &shi.to_array()[..]));
         let mut inv_mass = vec![1.0f32; LANES];
         inv_mass[3] = 0.0;
         for k in 0..LANES {
@@ -323,7 +384,7 @@ mod tests {
             }
         }
         assert!(bad, "lane 2 (pushed, moving) holds the NaN");
-        b.hit[2] = false;
+        (b.hit[2], b.hit[6], b.hit[14]) = (false, false, false); // the NaN's lane and the infinities'
         // SAFETY: as above.
         assert!(!unsafe { store_block(&b, &inv_mass, &mut q.clone(), &mut qd.clone()) }, "no written lane is NaN");
     }

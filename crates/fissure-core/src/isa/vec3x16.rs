@@ -115,7 +115,7 @@ pub(crate) unsafe fn join(f: [__m512; 3]) -> [__m512; 3] {
 #[inline(always)]
 unsafe fn permute3(v: [__m512; 3], t: &[[[i32; 16]; 2]; 3]) -> [__m512; 3] {
     // SAFETY: AVX-512 F (the caller's target features). Written out, without closures: a closure here does not
-    // take the caller's target features, and the intrinsics in it were calls in some callers (`lanes::load_block`).
+    // take the caller's target features, and the intrinsics in it were calls in some callers (`lanes::load_positions`).
     unsafe {
         let (a, b, c) = (
             _mm512_permutex2var_ps(v[0], index(&t[0][0]), v[1]),

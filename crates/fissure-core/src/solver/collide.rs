@@ -123,7 +123,7 @@ pub(super) fn collide_chunk<R: Real>(
     // Planes and balls only: each block goes through them all at once, lane by lane (`collision::lanes`: the same
     // bits as the full resolve below, which the near list and far check reproduce).
     let closed = lanes::all_closed_form(prepared);
-    // `f32` on AVX-512: whole blocks loaded and written back with permutes (`lanes::load_block`, the same values).
+    // `f32` on AVX-512: whole blocks loaded and written back with permutes (`lanes::load_positions`, the same values).
     #[cfg(target_arch = "x86_64")]
     let by_hand = closed && crate::isa::avx512() && std::any::TypeId::of::<R>() == std::any::TypeId::of::<f32>();
     #[cfg(not(target_arch = "x86_64"))]
@@ -136,9 +136,9 @@ pub(super) fn collide_chunk<R: Real>(
         #[cfg(target_arch = "x86_64")]
         if whole {
             use crate::real::as_f32;
-            // SAFETY: AVX-512 (`by_hand`); a whole block.
-            let (l, h) = unsafe { lanes::load_block(as_f32(R::flat(qb)), as_f32(R::flat(vb)), &mut block) };
-            (lo, hi) = (glam::Vec3::from_array(l), glam::Vec3::from_array(h));
+            // SAFETY: AVX-512 (`by_hand`); a whole block. Its velocities only where a collider may reach it (below).
+            let (l, h) = unsafe { lanes::load_positions(as_f32(R::flat(qb)), &mut block) };
+            (lo, hi) = (glam::Vec3::new(l[0], l[1], l[2]), glam::Vec3::new(h[0], h[1], h[2]));
         }
         if !whole {
             for x in qb.iter() {
@@ -164,6 +164,8 @@ pub(super) fn collide_chunk<R: Real>(
         #[cfg(target_arch = "x86_64")]
         if whole {
             use crate::real::{as_f32, as_f32_mut};
+            // SAFETY: AVX-512 (`by_hand`); a whole block.
+            unsafe { lanes::load_velocities(as_f32(R::flat(vb)), &mut block) };
             lanes::resolve_lanes(prepared, colliders, &mut block);
             let w = as_f32(&inv_mass[p0..p0 + COLLIDE_BLOCK]);
             // SAFETY: AVX-512 (`by_hand`); a whole block.
