@@ -135,7 +135,8 @@ pub(crate) struct Inputs<'a> {
 }
 
 /// Block `b` of [`Ell`] (particles `8b .. 8b + 8`): each particle's force (gravity, its springs in row order,
-/// then with wind its triangles' corner forces in row order, or its gas push `P/6 Σ cross`, then its caps' `P g`), then `v += f (w dt)`, `x += v dt` where its inverse
+/// then with wind its triangles' corner forces in row order, or its gas push `P/6 Σ cross` where `P` is not 0, then
+/// its caps' `P g`), then `v += f (w dt)`, `x += v dt` where its inverse
 /// mass `w` is not 0. `q` and `v`: the block's 24 position and velocity values. With `x.loads`, each particle's
 /// load (`|Σ ± pull + P/6 Σ cross|` where its limit is finite, else 0) into `load` (8 values). Returns whether a
 /// value it wrote is not finite.
@@ -249,13 +250,22 @@ pub(crate) unsafe fn block(x: &Inputs<'_>, b: usize, q: *mut f32, v: *mut f32, l
     }
     if let Some((cross, p6)) = x.cross {
         assert!(cross.len() == 4 * e.shape.2 && (t0 + 8 * kt) as usize <= e.tris.len().min(e.tri_at.len()));
-        let s = plus_tri_columns!((z, z, z), e.tri_at, cross);
         assert!(x.body[i0..i0 + 8].iter().all(|&b| (b as usize) < p6.len()), "a particle's body out of range");
         // SAFETY: every body is below `p6.len()` (asserted just above).
         let p = unsafe { _mm256_i32gather_ps::<4>(p6.as_ptr(), bodies) };
-        let share = (_mm256_mul_ps(s.0, p), _mm256_mul_ps(s.1, p), _mm256_mul_ps(s.2, p));
-        f = (_mm256_add_ps(f.0, share.0), _mm256_add_ps(f.1, share.1), _mm256_add_ps(f.2, share.2));
-        fe = (_mm256_add_ps(fe.0, share.0), _mm256_add_ps(fe.1, share.1), _mm256_add_ps(fe.2, share.2));
+        // A lane whose body has no pressure takes `-0` (`forces::pressure_share`), and a block of such lanes (the
+        // core blocks broken off a ball) reads no crosses: theirs are not formed (`forces::gas_tri_end`).
+        let pushed = _mm256_cmp_ps::<_CMP_NEQ_UQ>(p, z);
+        if _mm256_movemask_ps(pushed) != 0 {
+            let s = plus_tri_columns!((z, z, z), e.tri_at, cross);
+            let share = (
+                _mm256_blendv_ps(neg0, _mm256_mul_ps(s.0, p), pushed),
+                _mm256_blendv_ps(neg0, _mm256_mul_ps(s.1, p), pushed),
+                _mm256_blendv_ps(neg0, _mm256_mul_ps(s.2, p), pushed),
+            );
+            f = (_mm256_add_ps(f.0, share.0), _mm256_add_ps(f.1, share.1), _mm256_add_ps(f.2, share.2));
+            fe = (_mm256_add_ps(fe.0, share.0), _mm256_add_ps(fe.1, share.1), _mm256_add_ps(fe.2, share.2));
+        }
     }
     if let Some((g, pressure)) = x.caps {
         assert!(g.len() == 3 * x.mass.len());

@@ -180,8 +180,9 @@ impl<R: Real> ForceScratch<R> {
         // Pass A: crosses and per-chunk volume partials.
         let partial_rows = m.tri_count().div_ceil(par::CHUNK).max(1);
         let vp = &mut self.vol_partials[..partial_rows * nb];
+        let end = if pressure { gas_tri_end(m) } else { m.tri_count() };
         let cross_chunk =
-            |start: usize, cross: &mut [R::VA], part: &mut [R]| cross_chunk(m, q, pressure, start, cross, part);
+            |start: usize, cross: &mut [R::VA], part: &mut [R]| cross_chunk(m, q, pressure, (start, end), cross, part);
         // Without gas the crosses are the wind pass's alone: it forms them itself (below), one pass over the
         // triangles instead of two.
         let fused_wind = !pressure && m.has_wind();
@@ -273,10 +274,13 @@ pub(crate) fn cross_chunk<R: Real>(
     m: &Model<R>,
     q: &[R::V],
     pressure: bool,
-    start: usize,
+    (start, end): (usize, usize),
     cross: &mut [R::VA],
     part: &mut [R],
 ) {
+    // Triangles from `end` on are not formed ([`gas_tri_end`]); the chunk's row of partials is still zeroed.
+    let n = end.saturating_sub(start).min(cross.len());
+    let cross = &mut cross[..n];
     // `f32` on AVX2: eight triangles at a time (`cross_avx2`), the same bits.
     #[cfg(target_arch = "x86_64")]
     if std::any::TypeId::of::<R>() == std::any::TypeId::of::<f32>() && crate::isa::avx2() {
@@ -383,10 +387,33 @@ pub(crate) fn add_corners<R: Real>(f: R::V, m: &Model<R>, s: &ForceScratch<R>, i
 /// [`Real::VA`] (one 16-byte load and one packed add an entry in `f32`): on the Zen 3 development VM the gas added
 /// 1.16–1.38× the spring pass to the ball's step with 12-byte crosses, 1.06–1.21× with padded ones (harness
 /// `terms`, six alternated pairs, 2026-11-28), the same bits.
+///
+/// A particle of a body without pressure (`P/6 = 0`: a body without gas, such as a core block broken off a ball)
+/// takes none: `-0` in each component, which adds nothing (`x + −0 = x` for every `x`), and its triangles'
+/// crosses are not read (the surface pass does not form the crosses of a model's last triangles that belong to
+/// bodies without gas: [`gas_tri_end`]).
 #[inline(always)]
 pub(crate) fn pressure_share<R: Real>(m: &Model<R>, s: &ForceScratch<R>, i: usize) -> R::V {
+    let p = s.body_p6[m.particle_body[i] as usize];
+    if p == R::ZERO {
+        let z = -R::ZERO;
+        return R::V::new(z, z, z);
+    }
     let c = m.particle_tris.row(i).iter().fold(R::VA::default(), |c, &t| c + s.tri_cross[t as usize]);
-    c.into() * s.body_p6[m.particle_body[i] as usize]
+    c.into() * p
+}
+
+/// One past the last triangle whose cross a pass reads: with wind every triangle's (its drag and lift read them),
+/// else one past the last triangle of a body with gas (only gas bodies' particles read crosses: see
+/// [`pressure_share`]). The core blocks broken off a ball are bodies without gas whose triangles the fracture
+/// pass orders after the ball's (`Model::order_triangles_by_body`): their crosses were 12 % of the surface
+/// pass's on the 2,562-vertex ball after 100 core splits, for nothing. Found walking back from the last
+/// triangle: O(1) where the last triangle's body has gas, as on an intact ball.
+pub(crate) fn gas_tri_end<R: Real>(m: &Model<R>) -> usize {
+    if m.has_wind() {
+        return m.tri_count();
+    }
+    m.tri_body.iter().rposition(|&b| m.body_gas_amount[b as usize] > R::ZERO).map_or(0, |t| t + 1)
 }
 
 /// The gas's push on particle `i` through the caps over its body's openings \[N\] (zero off their loops; only
@@ -446,4 +473,56 @@ pub(crate) fn spring_gather<R: Real>(mut f: R::V, row: &[u32], buf: &[R::V]) -> 
         }
     }
     f
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::model::{Gas, ModelBuilder, SoftBodyOptions};
+    use glam::DVec3;
+
+    /// A body without gas after a ball with gas (as a split ball's core blocks follow it): its triangles' crosses
+    /// are neither formed nor read (poisoned with NaN, they stay NaN and no force is NaN), and its particles'
+    /// forces are gravity's and their springs' bit for bit, in `f32` and `f64`.
+    fn a_body_without_gas_reads_no_crosses<R: Real>() {
+        let mut b = ModelBuilder::new();
+        let gas = SoftBodyOptions { gas: Gas::Amount(50.0), ..Default::default() };
+        b.add_soft_body(&crate::Mesh::icosphere(0.2, 2), &gas).unwrap();
+        let mesh = crate::Mesh::icosphere(0.1, 1).translated(DVec3::new(1.0, 0.0, 0.0));
+        b.add_soft_body(&mesh, &SoftBodyOptions { gas: Gas::None, ..Default::default() }).unwrap();
+        let m: Model<R> = b.finalize().unwrap();
+        let mut state = m.state();
+        // Stretched a little so that the springs pull.
+        state.particle_q.iter_mut().for_each(|x| *x *= R::from_f64(1.05));
+        let (q, qd) = (&state.particle_q, &state.particle_qd);
+        let mut s = ForceScratch::<R>::default();
+        s.resize(&m, false);
+        let first_gasless = m.tri_body.iter().position(|&b| b == 1).unwrap();
+        assert_eq!(gas_tri_end(&m), first_gasless, "the crosses end with the ball's triangles");
+        let nan = R::from_f64(f64::NAN);
+        s.tri_cross.iter_mut().for_each(|c| *c = R::V::new(nan, nan, nan).into());
+        s.springs(&m, q, qd);
+        s.surface(&m, q, qd, 0.0, false);
+        assert!(s.body_pressure[0] > R::ZERO && s.body_pressure[1] == R::ZERO);
+        assert!(s.tri_cross[first_gasless..].iter().all(|&c| !c.into().is_finite()), "not formed");
+        assert!(s.tri_cross[..first_gasless].iter().all(|&c| c.into().is_finite()), "formed");
+        for i in 0..m.particle_count() {
+            let (with, without) = (particle_force(&m, &s, true, i), particle_force(&m, &s, false, i));
+            assert!(with.is_finite(), "particle {i}: {with:?}");
+            if m.particle_body[i] == 1 {
+                assert_eq!(
+                    with.to_array().map(|x| x.to_f64().to_bits()),
+                    without.to_array().map(|x| x.to_f64().to_bits())
+                );
+            } else {
+                assert!((with - without).length() > R::ZERO, "particle {i}: the gas pushes");
+            }
+        }
+    }
+
+    #[test]
+    fn a_body_without_gas_reads_no_crosses_f32_and_f64() {
+        a_body_without_gas_reads_no_crosses::<f32>();
+        a_body_without_gas_reads_no_crosses::<f64>();
+    }
 }

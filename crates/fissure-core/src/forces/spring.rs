@@ -70,6 +70,7 @@ impl<R: Real> ForceScratch<R> {
     ) {
         let (nb, size) = (m.body_count(), par::piece(par::CHUNK));
         let rows = m.tri_count().div_ceil(par::CHUNK).max(1);
+        let end = super::gas_tri_end(m);
         let mut order = std::mem::take(&mut self.fused_order);
         region_order(&mut order, m.tri_count(), par::CHUNK, m.spring_count(), size);
         let ps = par::Pieces::new(&mut self.spring_f, size);
@@ -96,7 +97,7 @@ impl<R: Real> ForceScratch<R> {
             par::exec(false, nc + np, &|k| unsafe {
                 let k = *ord.get_unchecked(k) as usize;
                 if k < nc {
-                    super::cross_chunk(m, q, true, k * par::CHUNK, pc.get(k), pv.get(k))
+                    super::cross_chunk(m, q, true, (k * par::CHUNK, end), pc.get(k), pv.get(k))
                 } else {
                     let p = k - nc;
                     spring_chunk_dispatch::<R, PROJECTED, MEASURE>(m, q, qd, p * size, ps.get(p), sink_ref, els(p))
@@ -106,7 +107,7 @@ impl<R: Real> ForceScratch<R> {
             par::exec(false, nc + np + 1, &|k| unsafe {
                 let k = if k < nc + np { *ord.get_unchecked(k) as usize } else { k };
                 if k < nc {
-                    super::cross_chunk(m, q, true, k * par::CHUNK, pc.get(k), pv.get(k))
+                    super::cross_chunk(m, q, true, (k * par::CHUNK, end), pc.get(k), pv.get(k))
                 } else if k < nc + np {
                     let p = k - nc;
                     spring_chunk_dispatch::<R, PROJECTED, MEASURE>(m, q, qd, p * size, ps.get(p), sink_ref, els(p))
