@@ -68,6 +68,8 @@ pub(crate) struct ForceScratch<R: Real> {
     pub body_pressure: Vec<R>,
     /// The caps over the openings of gas bodies (see [`pressure::Caps`]).
     pub caps: pressure::Caps<R>,
+    /// Each body with triangles as `(one past its last triangle, body)`, the greatest first ([`gas_tri_end`]).
+    pub tri_ends: Vec<(u32, u32)>,
     /// The order the team takes [`ForceScratch::springs_and_crosses`]'s pieces in (scratch, rebuilt each call).
     pub fused_order: Vec<u32>,
     /// The particles' rows blocked for the symplectic Euler update on AVX2 (`f32`, per-spring kernel: see
@@ -126,6 +128,7 @@ impl<R: Real> ForceScratch<R> {
         self.body_pressure.resize(m.body_count(), R::ZERO);
         self.vol_partials.resize(nt.div_ceil(par::CHUNK).max(1) * m.body_count(), R::ZERO);
         self.caps.plan(m);
+        self.tri_ends = if m.has_pressure() { tri_ends(m) } else { Vec::new() };
         #[cfg(target_arch = "x86_64")]
         {
             let f32_avx2 = std::any::TypeId::of::<R>() == std::any::TypeId::of::<f32>() && crate::isa::avx2();
@@ -180,7 +183,7 @@ impl<R: Real> ForceScratch<R> {
         // Pass A: crosses and per-chunk volume partials.
         let partial_rows = m.tri_count().div_ceil(par::CHUNK).max(1);
         let vp = &mut self.vol_partials[..partial_rows * nb];
-        let end = if pressure { gas_tri_end(m) } else { m.tri_count() };
+        let end = if pressure { gas_tri_end(m, &self.tri_ends) } else { m.tri_count() };
         let cross_chunk =
             |start: usize, cross: &mut [R::VA], part: &mut [R]| cross_chunk(m, q, pressure, (start, end), cross, part);
         // Without gas the crosses are the wind pass's alone: it forms them itself (below), one pass over the
@@ -407,13 +410,27 @@ pub(crate) fn pressure_share<R: Real>(m: &Model<R>, s: &ForceScratch<R>, i: usiz
 /// else one past the last triangle of a body with gas (only gas bodies' particles read crosses: see
 /// [`pressure_share`]). The core blocks broken off a ball are bodies without gas whose triangles the fracture
 /// pass orders after the ball's (`Model::order_triangles_by_body`): their crosses were 12 % of the surface
-/// pass's on the 2,562-vertex ball after 100 core splits, for nothing. Found walking back from the last
-/// triangle: O(1) where the last triangle's body has gas, as on an intact ball.
-pub(crate) fn gas_tri_end<R: Real>(m: &Model<R>) -> usize {
+/// pass's on the 2,562-vertex ball after 100 core splits, for nothing. `tri_ends`: each body with triangles as
+/// `(one past its last triangle, body)`, the greatest first ([`ForceScratch::resize`]); gas amounts change
+/// between steps (leaks, inflow), so the first body with gas is found at each evaluation (the first entry on an
+/// intact ball). Walking back over the triangles instead cost the split ball's surface stage ~0.4 µs a step.
+pub(crate) fn gas_tri_end<R: Real>(m: &Model<R>, tri_ends: &[(u32, u32)]) -> usize {
     if m.has_wind() {
         return m.tri_count();
     }
-    m.tri_body.iter().rposition(|&b| m.body_gas_amount[b as usize] > R::ZERO).map_or(0, |t| t + 1)
+    tri_ends.iter().find(|&&(_, b)| m.body_gas_amount[b as usize] > R::ZERO).map_or(0, |&(end, _)| end as usize)
+}
+
+/// Each body with triangles as `(one past its last triangle, body)`, the greatest first (for [`gas_tri_end`]).
+fn tri_ends<R: Real>(m: &Model<R>) -> Vec<(u32, u32)> {
+    let mut end = vec![0u32; m.body_count()];
+    for (t, &b) in m.tri_body.iter().enumerate() {
+        end[b as usize] = t as u32 + 1;
+    }
+    let mut out: Vec<(u32, u32)> =
+        end.iter().enumerate().filter(|(_, e)| **e > 0).map(|(b, &e)| (e, b as u32)).collect();
+    out.sort_unstable_by(|a, b| b.cmp(a));
+    out
 }
 
 /// The gas's push on particle `i` through the caps over its body's openings \[N\] (zero off their loops; only
@@ -498,7 +515,13 @@ mod tests {
         let mut s = ForceScratch::<R>::default();
         s.resize(&m, false);
         let first_gasless = m.tri_body.iter().position(|&b| b == 1).unwrap();
-        assert_eq!(gas_tri_end(&m), first_gasless, "the crosses end with the ball's triangles");
+        assert_eq!(gas_tri_end(&m, &s.tri_ends), first_gasless, "the crosses end with the ball's triangles");
+        // Gas amounts change between steps (inflow, leaks): the end follows them.
+        let mut other = m.clone();
+        other.body_gas_amount[1] = R::ONE;
+        assert_eq!(gas_tri_end(&other, &s.tri_ends), m.tri_count());
+        other.body_gas_amount = vec![R::ZERO; 2];
+        assert_eq!(gas_tri_end(&other, &s.tri_ends), 0);
         let nan = R::from_f64(f64::NAN);
         s.tri_cross.iter_mut().for_each(|c| *c = R::V::new(nan, nan, nan).into());
         s.springs(&m, q, qd);

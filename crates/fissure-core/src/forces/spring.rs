@@ -70,7 +70,7 @@ impl<R: Real> ForceScratch<R> {
     ) {
         let (nb, size) = (m.body_count(), par::piece(par::CHUNK));
         let rows = m.tri_count().div_ceil(par::CHUNK).max(1);
-        let end = super::gas_tri_end(m);
+        let end = super::gas_tri_end(m, &self.tri_ends);
         let mut order = std::mem::take(&mut self.fused_order);
         region_order(&mut order, m.tri_count(), par::CHUNK, m.spring_count(), size);
         let ps = par::Pieces::new(&mut self.spring_f, size);
