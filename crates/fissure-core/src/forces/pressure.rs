@@ -195,15 +195,13 @@ impl<'a, R: Real> CapPieces<'a, R> {
         for &[b, ..] in self.loops {
             totals[b as usize] = R::ZERO;
         }
+        if self.once {
+            return self.assemble_once(m, g, e, terms, totals);
+        }
         for &[b, start, end] in self.loops {
             if m.body_gas_amount[b as usize] > R::ZERO {
-                // Each loop's sum apart, then added to its body's: the loops' short chains overlap.
-                let sum = terms[start as usize..end as usize].iter().fold(R::ZERO, |v, &x| v + x);
-                totals[b as usize] += sum;
+                totals[b as usize] += loop_sum(&terms[start as usize..end as usize]);
             }
-        }
-        if self.once {
-            return self.assemble_once(m, g, e);
         }
         // A particle on two loops (or twice on one): its entry summed in `g` edge by edge, loop by loop.
         for &i in self.touched {
@@ -270,28 +268,35 @@ impl<'a, R: Real> CapPieces<'a, R> {
     /// Where no particle is on two loops or twice on one ([`Caps::once`]): particle `rim[k]`'s entry
     /// `((0 + e[k - 1]) + e[k]) + share` (`rim[0]`'s `((0 + e[0]) + e[n - 1]) + share`), the sums the general
     /// path forms in `g` edge by edge, here formed in registers and written once (no pass zeroing `g` first):
-    /// the same bits. (Alone, with the edges formed one by one, this measured no change: the maths is the cost.)
-    fn assemble_once(&self, m: &Model<R>, g: &mut [R::V], e: &[R::VA]) {
+    /// the same bits. Each loop in one visit: its terms' sum into its body's total, its share `Σ e / n` (the edges'
+    /// sum from `0 + e[0]`, as the general path's), then each entry, written once (before, the entries were written
+    /// and the share added in a second pass, and the totals summed in a pass of their own).
+    fn assemble_once(&self, m: &Model<R>, g: &mut [R::V], e: &[R::VA], terms: &[R], totals: &mut [R]) {
         for &[b, start, end] in self.loops {
             let (rim, e) = (&self.rim[start as usize..end as usize], &e[start as usize..end as usize]);
             if m.body_gas_amount[b as usize] <= R::ZERO {
                 rim.iter().for_each(|&i| g[i as usize] = R::V::ZERO);
                 continue;
             }
+            totals[b as usize] += loop_sum(&terms[start as usize..end as usize]);
             let (Some(&first), Some(&e0), Some(&last)) = (rim.first(), e.first(), e.last()) else { continue };
             let (e0, last): (R::V, R::V) = (e0.into(), last.into());
-            let (mut centre_g, mut prev) = (R::V::ZERO + e0, e0);
+            let centre_g = e[1..].iter().fold(R::V::ZERO + e0, |c, &ek| c + ek.into());
+            let share = centre_g * (R::ONE / R::from_f64(rim.len() as f64));
+            g[first as usize] = ((R::V::ZERO + e0) + last) + share;
+            let mut prev = e0;
             for (&i, &ek) in rim.iter().zip(e).skip(1) {
                 let ek: R::V = ek.into();
-                g[i as usize] = (R::V::ZERO + prev) + ek;
-                centre_g += ek;
+                g[i as usize] = ((R::V::ZERO + prev) + ek) + share;
                 prev = ek;
-            }
-            g[first as usize] = (R::V::ZERO + e0) + last;
-            let share = centre_g * (R::ONE / R::from_f64(rim.len() as f64));
-            for &i in rim {
-                g[i as usize] += share;
             }
         }
     }
+}
+
+/// A loop's volume terms summed from `+0` in order (each loop's sum apart, then added to its body's: the loops'
+/// short chains overlap).
+#[inline(always)]
+fn loop_sum<R: Real>(terms: &[R]) -> R {
+    terms.iter().fold(R::ZERO, |v, &x| v + x)
 }
