@@ -209,28 +209,31 @@ impl<R: Real> ForceScratch<R> {
                 });
             }
         }
-        let sixth = R::from_f64(1.0 / 6.0);
-        // A body without gas has no volume terms (its volume reads 0): its partials are neither written nor read.
-        // A split ball's 100 core blocks are such bodies; zeroed and summed, their partials' lines went from the
-        // core that formed them to the one that summed them, ~1.1 µs a step on the team (2,562 vertices, the Zen 4
-        // development VM, 2026-11-29).
+        // Each body's volume, pressure and `P / 6` in one visit (three loops over a split ball's 101 bodies
+        // were ~0.5 µs of the surface stage on the team). A body without gas has no volume terms (its volume
+        // reads 0): its partials are neither written nor read. A split ball's 100 core blocks are such bodies;
+        // zeroed and summed, their partials' lines went from the core that formed them to the one that summed
+        // them, ~1.1 µs a step on the team (2,562 vertices, the Zen 4 development VM, 2026-11-29). The caps'
+        // volume terms are added as each body's sum, formed where the terms were (`pressure::CapPieces::run`: read
+        // edge by edge here, a split ball's 600 terms, 38 cache lines, came from the other core, ~1.1 µs a step);
+        // a body without caps has `+0` there, which changes no sum (the partials' sum starts at `+0`, so it is
+        // never `-0`).
+        let (sixth, totals) = (R::from_f64(1.0 / 6.0), &self.caps.totals);
         for b in 0..nb {
-            self.body_volume[b] = if m.body_gas_amount[b] > R::ZERO {
-                (0..partial_rows).fold(R::ZERO, |acc, r| acc + vp[r * nb + b])
+            let gas = m.body_gas_amount[b];
+            if gas > R::ZERO {
+                let mut v6 = (0..partial_rows).fold(R::ZERO, |acc, r| acc + vp[r * nb + b]);
+                if let Some(&t) = totals.get(b) {
+                    v6 += t;
+                }
+                let v = v6 * sixth;
+                self.body_volume[b] = v;
+                self.body_pressure[b] =
+                    pressure::gas_pressure(gas, v, m.body_rest_volume[b], m.body_pressure_external[b]);
             } else {
-                R::ZERO
-            };
-        }
-        self.add_cap_volumes(m);
-        for b in 0..nb {
-            let v = self.body_volume[b] * sixth;
-            self.body_volume[b] = v;
-            self.body_pressure[b] =
-                pressure::gas_pressure(m.body_gas_amount[b], v, m.body_rest_volume[b], m.body_pressure_external[b]);
-        }
-        // Pass B (wind only): per-corner force of each triangle. Without wind the gathers form the pressure share.
-        let sixth = R::from_f64(1.0 / 6.0);
-        for b in 0..nb {
+                (self.body_volume[b], self.body_pressure[b]) = (R::ZERO, R::ZERO);
+            }
+            // Pass B (wind only) forms per-corner forces; without wind the gathers form the pressure share.
             self.body_p6[b] = self.body_pressure[b] * sixth;
         }
         let wind = if m.has_wind() { m.wind.as_ref() } else { None };

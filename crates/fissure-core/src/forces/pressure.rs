@@ -14,7 +14,6 @@
 //! GPU twins: `gas_pressure`, `pressure_corner_force` and `MIN_VOLUME_FRACTION` in `shaders/common.wgsl`, used by
 //! the kernels `surface_cross`, `surface_caps`, `surface_volume` and `surface_force` in `shaders/surface.wgsl`.
 
-use super::ForceScratch;
 use crate::model::Model;
 use crate::real::{Real, Vector3};
 
@@ -126,21 +125,6 @@ impl<R: Real> Caps<R> {
     }
 }
 
-impl<R: Real> ForceScratch<R> {
-    /// Adds the caps' volumes (each body's terms of `6 V` summed by [`CapPieces::run`]) to `body_volume` (still
-    /// `6 V`, before the division). The caps' own sums, formed where the terms were: read edge by edge here, a
-    /// split ball's 600 terms (38 cache lines) came from the other core on the team, ~1.1 µs a step (2,562
-    /// vertices, the Zen 4 development VM, 2026-11-29).
-    pub(super) fn add_cap_volumes(&mut self, m: &Model<R>) {
-        for &b in &self.caps.bodies {
-            let b = b as usize;
-            if m.body_gas_amount[b] > R::ZERO {
-                self.body_volume[b] += self.caps.totals[b];
-            }
-        }
-    }
-}
-
 /// The caps, formed as one piece of a parallel pass (the surface pass's crosses, or the spring pass beside them):
 /// on the team a helper forms them while the caller forms crosses. Serial after the crosses, a split ball's 100
 /// caps cost its step ~2 µs of one thread while the other waited (2,562 vertices, 2026-11-25).
@@ -180,8 +164,8 @@ impl<'a, R: Real> CapPieces<'a, R> {
     }
 
     /// Zeroes `g` at the touched particles, then adds each cap's `∂(6V)/∂x / 6`, and writes each loop
-    /// edge's volume term (for [`ForceScratch::add_cap_volumes`]). Loops of bodies that leaked all their gas
-    /// are skipped (their gradients stay 0).
+    /// edge's volume term and each body's total of them (which `ForceScratch::surface` adds to its volume).
+    /// Loops of bodies that leaked all their gas are skipped (their gradients stay 0).
     ///
     /// # Safety
     /// Called once per pass (it writes the whole of `g` and `terms`), only when [`Self::count`] is 1.
