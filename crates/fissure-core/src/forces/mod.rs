@@ -70,8 +70,9 @@ pub(crate) struct ForceScratch<R: Real> {
     pub caps: pressure::Caps<R>,
     /// Each body with triangles as `(one past its last triangle, body)`, the greatest first ([`gas_tri_end`]).
     pub tri_ends: Vec<(u32, u32)>,
-    /// The order the team takes [`ForceScratch::springs_and_crosses`]'s pieces in (scratch, rebuilt each call).
-    pub fused_order: Vec<u32>,
+    /// The order the team takes [`ForceScratch::springs_and_crosses`]'s pieces in, and the triangle count, spring
+    /// count and piece size it was laid out for (rebuilt only when they change, not at every call).
+    pub fused_order: (Vec<u32>, [usize; 3]),
     /// The particles' rows blocked for the symplectic Euler update on AVX2 (`f32`, per-spring kernel: see
     /// [`gather_avx2`]); empty otherwise.
     #[cfg(target_arch = "x86_64")]

@@ -71,8 +71,11 @@ impl<R: Real> ForceScratch<R> {
         let (nb, size) = (m.body_count(), par::piece(par::CHUNK));
         let rows = m.tri_count().div_ceil(par::CHUNK).max(1);
         let end = super::gas_tri_end(m, &self.tri_ends);
-        let mut order = std::mem::take(&mut self.fused_order);
-        region_order(&mut order, m.tri_count(), par::CHUNK, m.spring_count(), size);
+        let (mut order, key) = std::mem::take(&mut self.fused_order);
+        let want = [m.tri_count(), m.spring_count(), size];
+        if key != want || order.is_empty() {
+            region_order(&mut order, m.tri_count(), par::CHUNK, m.spring_count(), size);
+        }
         let ps = par::Pieces::new(&mut self.spring_f, size);
         let pc = par::Pieces::new(&mut self.tri_cross, par::CHUNK);
         let pv = par::Pieces::new(&mut self.vol_partials[..rows * nb], nb);
@@ -120,7 +123,7 @@ impl<R: Real> ForceScratch<R> {
             self.strain_spans = sink.finish();
             self.strain_sparse = over.is_some();
         }
-        self.fused_order = order;
+        self.fused_order = (order, want);
     }
 
     /// [`ForceScratch::springs`] that also measures the fracture trigger's inputs: each spring's strain into
