@@ -212,7 +212,7 @@ pub(crate) unsafe fn load_positions(q: &[f32], b: &mut Lanes) -> ([f32; 4], [f32
 
 /// The least (`MIN`) or greatest value of each of three registers, as lanes 0, 1, 2 of one (lane 3: lane 2's).
 /// Written without closures: a closure does not take the caller's target features, and the intrinsics in one
-/// were calls (the collision pass 7× slower).
+/// were calls (the collision stage ~10× slower, 2 → 21 µs on the breakable 2,562-vertex ball).
 #[cfg(target_arch = "x86_64")]
 #[inline(always)]
 unsafe fn reduce3<const MIN: bool>(v: [std::arch::x86_64::__m512; 3]) -> std::arch::x86_64::__m128 {

@@ -66,8 +66,6 @@ pub(crate) struct Caps<R: Real> {
     /// Per body, its caps' terms of `6 V` summed (each loop's edge by edge from `+0`, then the loops' sums in the
     /// model's order), formed by [`CapPieces::run`] on the core that formed the terms: 0 for bodies without caps.
     pub totals: Vec<R>,
-    /// The bodies with caps (each once, in index order).
-    pub bodies: Vec<u32>,
     /// No particle is on two loops, nor twice on one: each entry of `g` at a loop's particle is then formed in
     /// registers and written once from the edges' gradients (see [`CapPieces::run`]).
     pub once: bool,
@@ -116,10 +114,6 @@ impl<R: Real> Caps<R> {
         }
         self.work.resize(self.rim.len() + 2 * self.loops.len(), R::VA::default());
         self.terms.resize(self.rim.len(), R::ZERO);
-        self.bodies.clear();
-        self.bodies.extend(self.loops.iter().map(|l| l[0]));
-        self.bodies.sort_unstable();
-        self.bodies.dedup();
         self.totals.clear();
         self.totals.resize(if self.loops.is_empty() { 0 } else { m.body_count() }, R::ZERO);
     }
