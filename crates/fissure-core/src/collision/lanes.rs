@@ -122,9 +122,9 @@ fn collider_lanes(p: &PreparedCollider, c: &Collider, b: &mut Lanes) -> bool {
         return false;
     }
     let (threshold, restitution, friction) = (c.restitution_threshold, c.restitution, c.friction);
-    // One loop, each select a blend of bits (both values formed, as in a vector). Written with `if`s over `bool`s,
-    // LLVM turned the selects between two arrays into a load through a selected pointer and kept the update
-    // scalar, a quarter of the block's time (`perf annotate`, the 2,562-vertex ball after 100 core splits, its
+    // One loop, each select a blend of bits (both values formed, as in a vector). Written with
+    // `if`s over `bool`s, LLVM turned the selects between two arrays into a load through a selected pointer and
+    // kept the update scalar, a quarter of the block's time (`perf annotate`, the 2,562-vertex ball after 100 core splits, its
     // blocks resting on the ground, one thread, 2026-11-29); with the blends it packs the one loop as it packed
     // the three it replaces (their arrays between them: the same samples). The same operations per lane, so the
     // same bits. What remains is the chain through the square root and the division (`vt_len`, `scale`).
@@ -163,7 +163,10 @@ fn mask(c: bool) -> u32 {
     (c as u32).wrapping_neg()
 }
 
-/// `a` where `m` is all ones, `b` where it is zero, bit for bit.
+/// `a` where `m` is all ones, `b` where it is zero, bit for bit: `Real::pick` with its mask formed by the caller,
+/// so that the contact flags become masks once per block (`Real::pick`, forming the mask from a `bool` at each
+/// select, made `resolve_lanes` ~20 % slower on the split ball's resting blocks: 237–259 → 290–311 samples,
+/// 2026-11-29).
 #[inline(always)]
 fn blend(m: u32, a: f32, b: f32) -> f32 {
     f32::from_bits((a.to_bits() & m) | (b.to_bits() & !m))
@@ -185,16 +188,12 @@ fn blend(m: u32, a: f32, b: f32) -> f32 {
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx512f,avx512vl")]
 pub(crate) unsafe fn load_positions(q: &[f32], b: &mut Lanes) -> ([f32; 4], [f32; 4]) {
-    use crate::isa::vec3x16::{load3, split};
     use std::arch::x86_64::*;
-    assert!(q.len() == 3 * LANES);
+    // SAFETY: AVX-512 F and VL (the target features).
+    let halves = unsafe { transpose(q, &mut b.x) };
     let (mut lo, mut hi) = ([_mm512_set1_ps(f32::INFINITY); 3], [_mm512_set1_ps(f32::NEG_INFINITY); 3]);
-    for h in 0..LANES / 16 {
-        // SAFETY: 48 values from 48 h, within the asserted length; AVX-512 F (the target features).
-        let x = unsafe { split(load3(q, 48 * h, None)) };
+    for x in halves {
         for e in 0..3 {
-            // SAFETY: `b.x[e]` holds `LANES` values.
-            unsafe { _mm512_storeu_ps(b.x[e].as_mut_ptr().add(16 * h), x[e]) };
             // `min(x, lo)` is `lo` where `x` is NaN: NaN is ignored.
             lo[e] = _mm512_min_ps(x[e], lo[e]);
             hi[e] = _mm512_max_ps(x[e], hi[e]);
@@ -247,18 +246,31 @@ unsafe fn reduce3<const MIN: bool>(v: [std::arch::x86_64::__m512; 3]) -> std::ar
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx512f,avx512vl")]
 pub(crate) unsafe fn load_velocities(qd: &[f32], b: &mut Lanes) {
+    // SAFETY: AVX-512 F and VL (the target features).
+    unsafe { transpose(qd, &mut b.v) };
+}
+
+/// `LANES` 3-vectors (flat components) into `out` per component with two-source permutes (`isa::vec3x16`), for
+/// [`load_positions`] and [`load_velocities`]; returns the registers of each half of 16 lanes.
+#[cfg(target_arch = "x86_64")]
+#[inline(always)]
+unsafe fn transpose(s: &[f32], out: &mut [[f32; LANES]; 3]) -> [[std::arch::x86_64::__m512; 3]; LANES / 16] {
     use crate::isa::vec3x16::{load3, split};
     use std::arch::x86_64::*;
-    assert!(qd.len() == 3 * LANES);
-    for h in 0..LANES / 16 {
-        // SAFETY: 48 values from 48 h, within the asserted length; `b.v[e]` holds `LANES` values.
+    assert!(s.len() == 3 * LANES);
+    // SAFETY: AVX-512 F (the caller's target features).
+    let mut halves = [[unsafe { _mm512_setzero_ps() }; 3]; LANES / 16];
+    for (h, half) in halves.iter_mut().enumerate() {
+        // SAFETY: 48 values from 48 h, within the asserted length; `out[e]` holds `LANES` values; AVX-512 F (the
+        // caller's target features).
         unsafe {
-            let v = split(load3(qd, 48 * h, None));
+            *half = split(load3(s, 48 * h, None));
             for e in 0..3 {
-                _mm512_storeu_ps(b.v[e].as_mut_ptr().add(16 * h), v[e]);
+                _mm512_storeu_ps(out[e].as_mut_ptr().add(16 * h), half[e]);
             }
         }
     }
+    halves
 }
 
 /// Writes back the lanes of `b` that a collider pushed (`b.hit`) and whose particle moves (`inv_mass` not zero)

@@ -73,7 +73,7 @@ impl<R: Real> ForceScratch<R> {
         let end = super::gas_tri_end(m, &self.tri_ends);
         let (mut order, key) = std::mem::take(&mut self.fused_order);
         let want = [m.tri_count(), m.spring_count(), size];
-        if key != want || order.is_empty() {
+        if key != want {
             region_order(&mut order, m.tri_count(), par::CHUNK, m.spring_count(), size);
         }
         let ps = par::Pieces::new(&mut self.spring_f, size);
