@@ -253,7 +253,7 @@ pub(super) fn xyzz8(cx: __m256, cy: __m256, cz: __m256) -> [__m256; 4] {
 /// glam's `cross` of `a` and `b` on eight lanes: `(ay bz − by az, az bx − bz ax, ax by − bx ay)`.
 #[target_feature(enable = "avx2")]
 #[inline]
-fn cross8(a: (__m256, __m256, __m256), b: (__m256, __m256, __m256)) -> (__m256, __m256, __m256) {
+pub(super) fn cross8(a: (__m256, __m256, __m256), b: (__m256, __m256, __m256)) -> (__m256, __m256, __m256) {
     let ((ax, ay, az), (bx, by, bz)) = (a, b);
     (
         _mm256_sub_ps(_mm256_mul_ps(ay, bz), _mm256_mul_ps(by, az)),

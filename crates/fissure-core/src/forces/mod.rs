@@ -23,6 +23,8 @@ pub mod spring;
 #[cfg(target_arch = "x86_64")]
 mod spring_avx2;
 pub mod wind;
+#[cfg(target_arch = "x86_64")]
+mod wind_avx2;
 pub(crate) mod wind_grid;
 
 use crate::model::Model;

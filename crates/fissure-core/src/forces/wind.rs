@@ -291,7 +291,31 @@ fn relative_air_impl<R: Real>(q: &[R::V], qd: &[R::V], w: &PreparedWind<R>, star
         let p0 = start + c * SPAN;
         let n = out.len();
         let (fq, fv) = (R::flat(&q[p0..p0 + n]), R::flat(&qd[p0..p0 + n]));
-        for k in 0..n {
+        // `f32` on AVX-512: whole blocks of 16 split into components with permutes (`isa::vec3x16`) and joined back,
+        // not value by value (scalar copies LLVM did not pack: the 10,242-vertex ball in wind, one thread, the Zen 4
+        // development VM, 2026-11-29, surface stage 102.5–105.7 → 95.7–98.7 µs a step). The same values.
+        #[cfg(target_arch = "x86_64")]
+        let wide = if std::any::TypeId::of::<R>() == std::any::TypeId::of::<f32>() && crate::isa::avx512() {
+            n / 16 * 16
+        } else {
+            0
+        };
+        #[cfg(not(target_arch = "x86_64"))]
+        let wide = 0;
+        #[cfg(target_arch = "x86_64")]
+        for k in (0..wide).step_by(16) {
+            use crate::isa::vec3x16::{load3, split};
+            use crate::real::{as_f32, as_f32_mut};
+            // SAFETY: AVX-512 (tested above); 48 values from `3k` in each (`k + 16 <= n`), 16 into each array.
+            unsafe {
+                let (xs, vs) = (split(load3(as_f32(fq), 3 * k, None)), split(load3(as_f32(fv), 3 * k, None)));
+                for e in 0..3 {
+                    std::arch::x86_64::_mm512_storeu_ps(as_f32_mut(&mut x[e][k..k + 16]).as_mut_ptr(), xs[e]);
+                    std::arch::x86_64::_mm512_storeu_ps(as_f32_mut(&mut v[e][k..k + 16]).as_mut_ptr(), vs[e]);
+                }
+            }
+        }
+        for k in wide..n {
             for e in 0..3 {
                 (x[e][k], v[e][k]) = (fq[3 * k + e], fv[3 * k + e]);
             }
@@ -302,7 +326,21 @@ fn relative_air_impl<R: Real>(q: &[R::V], qd: &[R::V], w: &PreparedWind<R>, star
                 v[e][k] = rel[e];
             }
         }
-        for (k, o) in out.iter_mut().enumerate() {
+        #[cfg(target_arch = "x86_64")]
+        for k in (0..wide).step_by(16) {
+            use crate::isa::vec3x16::{join, store3};
+            use crate::real::{as_f32, as_f32_mut};
+            // SAFETY: AVX-512 (tested above); 16 values from each array, 48 into `out` from `3k` (`k + 16 <= n`).
+            unsafe {
+                // (No closure: one is compiled without the caller's AVX-512, its intrinsics as calls.)
+                let at = |e: usize| as_f32(&v[e][k..k + 16]).as_ptr();
+                let (r0, r1, r2) = (at(0), at(1), at(2));
+                use std::arch::x86_64::_mm512_loadu_ps as load;
+                let r = [load(r0), load(r1), load(r2)];
+                store3(as_f32_mut(R::flat_mut(out)), 3 * k, join(r), None);
+            }
+        }
+        for (k, o) in out.iter_mut().enumerate().skip(wide) {
             *o = R::V::new(v[0][k], v[1][k], v[2][k]);
         }
     }
@@ -324,7 +362,9 @@ crate::isa::wide_kernel! {
     /// a plain loop over them (packed square roots and divisions), results scattered back. A triangle's relative
     /// air is the mean of its corners' (`air`). Compiled for AVX-512 or AVX2 when the CPU has them (same bits: see
     /// `crate::isa`; AVX-512 measured on the 128² cloth in wind, harness `terms`, 2026-11-24: the surface stage
-    /// 141–144 → 130–131 µs).
+    /// 141–144 → 130–131 µs). In `f32` on AVX2, a span of one body with the air per particle goes eight triangles
+    /// at a time by hand instead (`forces::wind_avx2`, the same bits; the 10,242-vertex ball in wind, harness
+    /// `terms`, 2026-11-29: the surface stage 73–75 → 57 µs a step on two threads).
     pub(crate) fn wind_chunk[R: Real](
         m: &Model<R>,
         q: &[R::V],
@@ -349,7 +389,7 @@ fn wind_chunk_impl<R: Real>(
     w: &PreparedWind<R>,
     out: &mut [R::V],
 ) {
-    let third = R::from_f64(1.0 / 3.0);
+    let (third, sixth) = (R::from_f64(1.0 / 3.0), R::from_f64(1.0 / 6.0));
     let z = [[R::ZERO; SPAN]; 3];
     let (mut c, mut rel, mut f) = (z, z, z);
     // Corners' positions and velocities (`Air::Corners` only).
@@ -383,9 +423,44 @@ fn wind_chunk_impl<R: Real>(
             Air::Corners(qd) => qd.len(),
         };
         assert!(top < q.len() && top < air_len, "triangle corner out of range");
-        let b0 = body[0];
-        if body.iter().all(|&b| b == b0) {
-            let b0 = b0 as usize;
+        let b0 = body[0] as usize;
+        let one_body = body.iter().all(|&b| b as usize == b0);
+        // `f32` on AVX2, the air per particle, a span of one body: whole blocks of eight by hand (`wind_avx2`, the
+        // same bits), where every corner's 16-byte load stays inside the positions and the air.
+        #[allow(unused_mut)]
+        let mut first = 0;
+        #[cfg(target_arch = "x86_64")]
+        if let (Air::Particles(a), Tris::Range { cross, .. }) = (air, &tris)
+            && std::any::TypeId::of::<R>() == std::any::TypeId::of::<f32>()
+            && crate::isa::avx2()
+            && one_body
+            && top + 1 < q.len().min(a.len())
+        {
+            use crate::real::{as_f32, as_f32_mut, va_as_f32};
+            let one = |x: R| as_f32(std::slice::from_ref(&x))[0];
+            let coefficients = super::wind_avx2::Coefficients {
+                cd: one(m.body_drag[b0]),
+                cl: one(m.body_lift[b0]),
+                pressure: one(pressure[b0]),
+                rho_half: one(rho_half),
+                third: one(third),
+                sixth: one(sixth),
+            };
+            let (qf, af) = (as_f32(R::flat(q)), as_f32(R::flat(a)));
+            let crosses = cross.map(|x| &va_as_f32::<R>(x)[4 * k0..4 * (k0 + n)]);
+            let room = k0 + n < out.len();
+            let dst = as_f32_mut(R::flat_mut(&mut out[k0..k0 + n + usize::from(room)]));
+            let dst = &mut dst[..3 * n + usize::from(room)];
+            // SAFETY: AVX2 (tested above); every corner index is at most `top`, below `q.len() - 1` and the air's
+            // length less one (tested above), so each 16-byte load stays inside them; with `room`, `dst` holds a
+            // value past the span's, the next triangle's (written after this).
+            first = unsafe { super::wind_avx2::blocks(qf, af, idx, crosses, coefficients, dst, room) };
+        }
+        if first == n {
+            k0 += n;
+            continue;
+        }
+        if one_body {
             cd.fill(m.body_drag[b0]);
             cl.fill(m.body_lift[b0]);
             p.fill(pressure[b0]);
@@ -395,7 +470,7 @@ fn wind_chunk_impl<R: Real>(
                 (cd[k], cl[k], p[k]) = (m.body_drag[b], m.body_lift[b], pressure[b]);
             }
         }
-        for k in 0..n {
+        for k in first..n {
             let [a, b, d] = idx[k].map(|i| i as usize);
             // SAFETY: a, b, d <= top < q.len() and the relative air's length (asserted above).
             let (qa, qb, qc) = unsafe { (*q.get_unchecked(a), *q.get_unchecked(b), *q.get_unchecked(d)) };
@@ -444,8 +519,7 @@ fn wind_chunk_impl<R: Real>(
                 }
             }
         }
-        let sixth = R::from_f64(1.0 / 6.0);
-        for k in 0..SPAN {
+        for k in first..SPAN {
             let cr = [c[0][k], c[1][k], c[2][k]];
             let a = aero_components(cr, [rel[0][k], rel[1][k], rel[2][k]], cd[k], cl[k], rho_half);
             let ps = p[k] * sixth;
@@ -454,7 +528,7 @@ fn wind_chunk_impl<R: Real>(
                 f[e][k] = cr[e] * ps + a[e] * third;
             }
         }
-        for k in 0..n {
+        for k in first..n {
             out[k0 + k] = R::V::new(f[0][k], f[1][k], f[2][k]);
         }
         k0 += n;
