@@ -51,12 +51,12 @@ pub(super) unsafe fn blocks(
     room: bool,
 ) -> usize {
     let n = t.len() / 8 * 8;
-    assert!(out.len() >= 3 * n && cross.is_none_or(|c| c.len() >= 4 * n));
+    assert!(out.len() >= 3 * t.len() + usize::from(room) && cross.is_none_or(|c| c.len() >= 4 * n));
     for b in (0..n).step_by(8) {
         let c = cross.map(|c| c[4 * b..].as_ptr());
         let room = room || b + 8 < t.len();
         // SAFETY: the corner indices as the caller guarantees; `c` holds the block's 32 values and `out` from `3b`
-        // its 24, and one more where a triangle follows (`room`; asserted above).
+        // its 24, and one more where a triangle of `t` follows or with the caller's `room` (asserted above).
         unsafe { block8(q.as_ptr(), air.as_ptr(), &t[b..b + 8], c, k, out[3 * b..].as_mut_ptr(), room) };
     }
     n
@@ -75,7 +75,7 @@ pub(super) unsafe fn blocks(
 /// holds 32 values, and `out` 24 (25 with `room`).
 #[target_feature(enable = "avx2")]
 #[inline]
-pub(super) unsafe fn block8(
+unsafe fn block8(
     q: *const f32,
     air: *const f32,
     t: &[[u32; 3]],
