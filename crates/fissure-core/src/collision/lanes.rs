@@ -255,20 +255,16 @@ pub(crate) unsafe fn load_velocities(qd: &[f32], b: &mut Lanes) {
 #[cfg(target_arch = "x86_64")]
 #[inline(always)]
 unsafe fn transpose(s: &[f32], out: &mut [[f32; LANES]; 3]) -> [[std::arch::x86_64::__m512; 3]; LANES / 16] {
-    use crate::isa::vec3x16::{load3, split};
+    use crate::isa::vec3x16::split_into;
     use std::arch::x86_64::*;
     assert!(s.len() == 3 * LANES);
     // SAFETY: AVX-512 F (the caller's target features).
     let mut halves = [[unsafe { _mm512_setzero_ps() }; 3]; LANES / 16];
     for (h, half) in halves.iter_mut().enumerate() {
-        // SAFETY: 48 values from 48 h, within the asserted length; `out[e]` holds `LANES` values; AVX-512 F (the
-        // caller's target features).
-        unsafe {
-            *half = split(load3(s, 48 * h, None));
-            for e in 0..3 {
-                _mm512_storeu_ps(out[e].as_mut_ptr().add(16 * h), half[e]);
-            }
-        }
+        let [x, y, z] = &mut *out;
+        let at = 16 * h;
+        // SAFETY: 48 values from 48 h, within the asserted length; AVX-512 F (the caller's target features).
+        *half = unsafe { split_into(s, 48 * h, [&mut x[at..], &mut y[at..], &mut z[at..]]) };
     }
     halves
 }

@@ -304,15 +304,15 @@ fn relative_air_impl<R: Real>(q: &[R::V], qd: &[R::V], w: &PreparedWind<R>, star
         let wide = 0;
         #[cfg(target_arch = "x86_64")]
         for k in (0..wide).step_by(16) {
-            use crate::isa::vec3x16::{load3, split};
+            use crate::isa::vec3x16::split_into;
             use crate::real::{as_f32, as_f32_mut};
-            // SAFETY: AVX-512 (tested above); 48 values from `3k` in each (`k + 16 <= n`), 16 into each array.
+            let ([x0, x1, x2], [v0, v1, v2]) = (&mut x, &mut v);
+            let xs = [as_f32_mut(&mut x0[k..]), as_f32_mut(&mut x1[k..]), as_f32_mut(&mut x2[k..])];
+            let vs = [as_f32_mut(&mut v0[k..]), as_f32_mut(&mut v1[k..]), as_f32_mut(&mut v2[k..])];
+            // SAFETY: AVX-512 (tested above); 48 values from `3k` in each (`k + 16 <= n`).
             unsafe {
-                let (xs, vs) = (split(load3(as_f32(fq), 3 * k, None)), split(load3(as_f32(fv), 3 * k, None)));
-                for e in 0..3 {
-                    std::arch::x86_64::_mm512_storeu_ps(as_f32_mut(&mut x[e][k..k + 16]).as_mut_ptr(), xs[e]);
-                    std::arch::x86_64::_mm512_storeu_ps(as_f32_mut(&mut v[e][k..k + 16]).as_mut_ptr(), vs[e]);
-                }
+                split_into(as_f32(fq), 3 * k, xs);
+                split_into(as_f32(fv), 3 * k, vs);
             }
         }
         for k in wide..n {
@@ -441,14 +441,13 @@ fn wind_chunk_impl<R: Real>(
             && top + 1 < q.len().min(a.len())
         {
             use crate::real::{as_f32, as_f32_mut, va_as_f32};
-            let one = |x: R| as_f32(std::slice::from_ref(&x))[0];
+            // (`R` is `f32` here: exact.)
+            let one = |x: R| x.to_f64() as f32;
             let coefficients = super::wind_avx2::Coefficients {
                 cd: one(m.body_drag[b0]),
                 cl: one(m.body_lift[b0]),
                 pressure: one(pressure[b0]),
                 rho_half: one(rho_half),
-                third: one(third),
-                sixth: one(sixth),
             };
             let (qf, af) = (as_f32(R::flat(q)), as_f32(R::flat(a)));
             let crosses = cross.map(|x| &va_as_f32::<R>(x)[4 * k0..4 * (k0 + n)]);

@@ -20,16 +20,18 @@ use std::arch::x86_64::*;
 use super::cross_avx2::{cross8, dot8, soa8, sub8, xyzz8};
 
 /// The coefficients [`block8`] applies, each as the portable loop holds it in `f32`: one body's drag and lift
-/// coefficients and pressure (a block of one body), `½ ρ`, and the constants ⅓ and ⅙.
+/// coefficients and pressure (a block of one body), and `½ ρ`.
 #[derive(Clone, Copy)]
 pub(super) struct Coefficients {
     pub cd: f32,
     pub cl: f32,
     pub pressure: f32,
     pub rho_half: f32,
-    pub third: f32,
-    pub sixth: f32,
 }
+
+/// ⅓ and ⅙ as the portable loop rounds them (`R::from_f64(1.0 / 3.0)` and `R::from_f64(1.0 / 6.0)` in `f32`).
+const THIRD: f32 = (1.0f64 / 3.0) as f32;
+const SIXTH: f32 = (1.0f64 / 6.0) as f32;
 
 /// [`block8`] over the whole blocks of eight of `t` (one body's triangles; their crosses, with `cross`, 4 values a
 /// triangle from its start), their corner forces into `out` (3 values a triangle); returns how many triangles it
@@ -101,7 +103,7 @@ unsafe fn block8(
         }
     };
     let (a0, a1, a2) = (corner!(air, 0), corner!(air, 1), corner!(air, 2));
-    let third = _mm256_set1_ps(k.third);
+    let third = _mm256_set1_ps(THIRD);
     // (Macros, not closures: a closure is compiled without this function's AVX2, its intrinsics as calls.)
     macro_rules! mean {
         ($a:expr, $b:expr, $d:expr) => {
@@ -118,7 +120,7 @@ unsafe fn block8(
     let abs = _mm256_andnot_ps(_mm256_set1_ps(-0.0), s);
     let kd = _mm256_mul_ps(_mm256_mul_ps(quarter, _mm256_set1_ps(k.cd)), abs);
     let kl = _mm256_mul_ps(_mm256_mul_ps(_mm256_mul_ps(quarter, _mm256_set1_ps(k.cl)), s), inv);
-    let ps = _mm256_set1_ps(k.pressure * k.sixth);
+    let ps = _mm256_set1_ps(k.pressure * SIXTH);
     macro_rules! force {
         ($c:expr, $v:expr) => {{
             let a = _mm256_add_ps(
@@ -161,6 +163,7 @@ mod tests {
     use super::super::cross_avx2::tests::xorshift;
     use super::super::wind::aero_components;
     use super::*;
+    use crate::real::Real;
     use glam::Vec3;
 
     /// [`blocks`] gives the portable loop's corner forces bit for bit (its cross or the given one, the mean air,
@@ -180,8 +183,9 @@ mod tests {
         // Particles 0–4 in still air.
         let air: Vec<f32> = (0..3 * n).map(|k| if k < 15 { 0.0 } else { coord(5.0) }).collect();
         let at = |s: &[f32], i: u32| Vec3::from_slice(&s[3 * i as usize..]);
-        let k =
-            Coefficients { cd: 1.1, cl: 0.45, pressure: 1234.5, rho_half: 0.6125, third: 1.0 / 3.0, sixth: 1.0 / 6.0 };
+        let k = Coefficients { cd: 1.1, cl: 0.45, pressure: 1234.5, rho_half: 0.6125 };
+        // The portable loop's constants, formed as it forms them.
+        let (third, sixth) = (f32::from_f64(1.0 / 3.0), f32::from_f64(1.0 / 6.0));
         let mut pick = xorshift(0x9e37_79b9_7f4a_7c15);
         for nt in 0..27usize {
             let t: Vec<[u32; 3]> = (0..nt)
@@ -211,10 +215,10 @@ mod tests {
                         } else {
                             (at(&q, b) - at(&q, a)).cross(at(&q, d) - at(&q, a))
                         };
-                        let r = (at(&air, a) + at(&air, b) + at(&air, d)) * k.third;
+                        let r = (at(&air, a) + at(&air, b) + at(&air, d)) * third;
                         let f = aero_components(c.to_array(), r.to_array(), k.cd, k.cl, k.rho_half);
-                        let ps = k.pressure * k.sixth;
-                        let want = [0, 1, 2].map(|e| c[e] * ps + f[e] * k.third);
+                        let ps = k.pressure * sixth;
+                        let want = [0, 1, 2].map(|e| c[e] * ps + f[e] * third);
                         let got = [0, 1, 2].map(|e| out[3 * l + e].to_bits());
                         assert_eq!(got, want.map(f32::to_bits), "{nt} triangles, triangle {l}");
                     }

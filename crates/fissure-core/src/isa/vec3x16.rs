@@ -104,6 +104,22 @@ pub(crate) unsafe fn split(v: [__m512; 3]) -> [__m512; 3] {
     unsafe { permute3(v, &SPLIT) }
 }
 
+/// 16 3-vectors from `s[at ..]` (interleaved) into `out[0..3]`, one component a slice (16 values each), and the
+/// three registers it stored (the collision pass's blocks, the wind's relative air).
+#[inline(always)]
+pub(crate) unsafe fn split_into(s: &[f32], at: usize, out: [&mut [f32]; 3]) -> [__m512; 3] {
+    assert!(out.iter().all(|o| o.len() >= 16));
+    // SAFETY: the caller's bounds for `s`, 16 values in each `out` (asserted); AVX-512 F (the caller's target
+    // features).
+    unsafe {
+        let c = split(load3(s, at, None));
+        for (o, &r) in out.into_iter().zip(&c) {
+            _mm512_storeu_ps(o.as_mut_ptr(), r);
+        }
+        c
+    }
+}
+
 /// The inverse of [`split`].
 #[inline(always)]
 pub(crate) unsafe fn join(f: [__m512; 3]) -> [__m512; 3] {
