@@ -3,12 +3,14 @@
 //! bound.
 
 mod lists;
+mod moves;
 
 use super::*;
 use crate::contact::geometry::{Box32, closest_on_segments, closest_on_triangle, plane_apart, segments_apart};
 use crate::contact::grid::HashGrid;
 use crate::contact::{Elements, GAMMA, RELAX, same_origin};
 use glam::DVec3;
+use moves::{CLOSING_BODIES, Moves, still_valid};
 #[cfg(feature = "parallel")]
 use rayon::prelude::*;
 
@@ -312,62 +314,6 @@ impl<T> Scatter<T> {
     }
 }
 
-/// Bodies past which [`still_valid`] is not worth its pairwise loop (the global drift test decides alone).
-const CLOSING_BODIES: usize = 64;
-
-/// What one sweep over the particles in contact measured (see `CpuSolver::contact`).
-struct Moves {
-    /// Largest squared move this step.
-    d2: f64,
-    /// Largest squared drift since the candidates were found.
-    r2: f64,
-    /// Each body's box of drifts (empty: not measured).
-    lo: Vec<DVec3>,
-    hi: Vec<DVec3>,
-}
-
-impl Moves {
-    fn new(bodies: usize) -> Self {
-        Moves { d2: 0.0, r2: 0.0, lo: vec![DVec3::INFINITY; bodies], hi: vec![DVec3::NEG_INFINITY; bodies] }
-    }
-
-    #[cfg(feature = "parallel")]
-    fn merge(mut self, o: Moves) -> Moves {
-        self.d2 = self.d2.max(o.d2);
-        self.r2 = self.r2.max(o.r2);
-        for (a, b) in self.lo.iter_mut().zip(o.lo) {
-            *a = a.min(b);
-        }
-        for (a, b) in self.hi.iter_mut().zip(o.hi) {
-            *a = a.max(b);
-        }
-        self
-    }
-}
-
-/// True if no pair missing from the list (built with `radius`, body boxes `gaps` apart) can have come within
-/// `r`. Over the pairs of bodies in contact that interact, a missing pair was at least `max(radius, gap)` apart
-/// and has closed in by at most the largest relative drift of a point of one body and a point of the other,
-/// which the bodies' boxes of drifts bound (`mv`; any point of an element drifts within its body's box): a piece
-/// riding on the ball it came from, a cloth falling as a whole, or a piece lying far from every other body does
-/// not force a rebuild. False when the boxes were not measured (more than [`CLOSING_BODIES`] bodies).
-fn still_valid<R: Real>(m: &Model<R>, mv: &Moves, gaps: &[f64], radius: f64, r: f64) -> bool {
-    let nb = m.body_count();
-    if mv.lo.len() != nb || gaps.len() != nb * nb {
-        return false;
-    }
-    let seen = |b: usize| mv.lo[b].x <= mv.hi[b].x;
-    (0..nb).all(|a| {
-        (a..nb).all(|b| {
-            if !(seen(a) && seen(b) && (a != b || m.body_self_contact[a])) {
-                return true;
-            }
-            let closing = (mv.hi[a] - mv.lo[b]).abs().max((mv.hi[b] - mv.lo[a]).abs()).length();
-            radius.max(gaps[a * nb + b]) - closing >= r
-        })
-    })
-}
-
 impl<R: Real> CpuSolver<R> {
     /// Keeps surfaces in contact apart (see the [`crate::contact`] module): from the positions `ct.x0` at the
     /// start of the substep to those in `s`, over `dt` \[s\].
@@ -392,31 +338,7 @@ impl<R: Real> CpuSolver<R> {
         c.moved.resize(m.particle_count(), 0.0);
         c.drifts.resize(m.particle_count(), 0.0);
         let (out, drifts) = (Scatter(c.moved.as_mut_ptr()), Scatter(c.drifts.as_mut_ptr()));
-        let moves = |ps: &[u32]| {
-            let mut mv = Moves::new(boxes);
-            for &i in ps {
-                let i = i as usize;
-                let x = x0[i].to_dvec3();
-                let d2 = (q[i].to_dvec3() - x).length_squared();
-                // SAFETY: `moved` has an entry per particle, and `el.particles` lists each particle once, so no
-                // two calls (in parallel chunks of it) write the same entry; nothing reads `moved` meanwhile.
-                unsafe { out.write(i, d2.sqrt()) };
-                mv.d2 = mv.d2.max(d2);
-                if fresh {
-                    let drift = x - xb[i].to_dvec3();
-                    let r2 = drift.length_squared();
-                    mv.r2 = mv.r2.max(r2);
-                    // SAFETY: as for `moved`.
-                    unsafe { drifts.write(i, (r2 as f32).sqrt() * (1.0 + 4.0 * f32::EPSILON)) };
-                    if boxes > 0 {
-                        let b = m.particle_body[i] as usize;
-                        mv.lo[b] = mv.lo[b].min(drift);
-                        mv.hi[b] = mv.hi[b].max(drift);
-                    }
-                }
-            }
-            mv
-        };
+        let moves = |ps: &[u32]| moves::sweep::<R>(ps, x0, q, xb, &m.particle_body, fresh, boxes, out, drifts);
         // (Maxima and boxes: the same in any grouping.)
         #[cfg(feature = "parallel")]
         let mv = if !(crate::par::pooled(el.particles.len()) && crate::par::rayon_free()) {
