@@ -159,6 +159,11 @@ fn ball_rests_on_a_ball_on_the_ground_without_sinking_or_jitter() {
 
 /// A 32² cloth with self-collision above a ball collider and the ground.
 fn folding_cloth() -> Model<f32> {
+    cloth_over_ball(None)
+}
+
+/// [`folding_cloth`], tearing at `tear` \[N/m\] if given.
+fn cloth_over_ball(tear: Option<f64>) -> Model<f32> {
     let mut b = ModelBuilder::new();
     b.add_collider(Collider::ball(glam::Vec3::new(0.0, 0.3, 0.0), 0.2).with_friction(0.4)).unwrap();
     b.add_collider(Collider::ground(0.0)).unwrap();
@@ -167,6 +172,7 @@ fn folding_cloth() -> Model<f32> {
         shear: Some(Stiffness::Membrane(50.0)),
         bending: Some(Stiffness::Membrane(2.0)),
         damping: Damping::Ratio(0.1),
+        fracture: tear.map(|t| Breakable { tear_strength: t, ..Default::default() }),
         ..Default::default()
     };
     let n = 32;
@@ -226,6 +232,42 @@ fn kept_candidate_lists_give_the_bits_of_lists_rebuilt_every_step() {
         assert!(ks.refreshes > 0, "{name}: no list was refreshed ({} builds in {} steps)", ks.builds, ks.steps);
         assert!(kept == fresh, "{name}: kept lists changed the result");
     }
+}
+
+/// The same across fractures: a cloth that tears as it folds onto a ball keeps its lists through the splits
+/// (refreshed around what each fracture touched: `ContactScratch::model_changed`) instead of building them again,
+/// and they give the bits of lists rebuilt at every step. (Refreshing only around the particles that drifted, as
+/// if the fracture had changed nothing, makes the trajectories differ.)
+#[test]
+fn lists_kept_across_fractures_give_the_bits_of_lists_rebuilt_every_step() {
+    let run = |always: bool| {
+        let mut m = cloth_over_ball(Some(4.0));
+        let mut s = m.state();
+        let mut solver = CpuSolver::<f32>::new(SolverConfig::default());
+        solver.rebuild_contact_lists_every_step(always);
+        let mut fracture = Fracture::<f32>::default();
+        let (dt, mut events, mut split_steps) = (2e-4, 0, 0);
+        for _ in 0..2500 {
+            solver.step(&m, &mut s, dt).unwrap();
+            if fracture.needed(&m) {
+                let delta = fracture.apply(&mut m, &mut s, dt);
+                events += delta.events.len();
+                split_steps += usize::from(!delta.events.is_empty());
+                solver.notify_model_changed(&m, &delta);
+            }
+        }
+        let bits = s.particle_q.iter().chain(&s.particle_qd).flat_map(|v| v.to_array()).map(f32::to_bits);
+        (bits.collect::<Vec<_>>(), solver.contact_stats(), events, split_steps)
+    };
+    let (kept, ks, events, split_steps) = run(false);
+    let (fresh, fs, fresh_events, _) = run(true);
+    assert!(events >= 20, "only {events} fractures");
+    assert!(ks.pushed_total > 0, "nothing touched");
+    assert_eq!(fs.builds, fs.steps, "rebuilt every step");
+    // Most steps that split kept their lists (a build after each would make at least `split_steps` builds).
+    assert!(ks.builds * 2 < split_steps as u64, "{} builds for {split_steps} steps with splits", ks.builds);
+    assert_eq!(events, fresh_events);
+    assert!(kept == fresh, "lists kept across fractures changed the result");
 }
 
 #[test]

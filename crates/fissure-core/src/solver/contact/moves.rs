@@ -51,12 +51,12 @@ impl Moves {
     }
 }
 
-/// Measures the particles `ps` (each listed once across all calls): writes each one's move `|q - x0|` to `out`
-/// and (`fresh`: the candidates have reference positions `xb`) its drift `|x0 - xb|`, rounded up to `f32`, to
-/// `drifts`; returns the largest squares of both and (`boxes` > 0: the model's body count) each body's box of
-/// drifts and largest drift. A body's box is kept in registers along a run of its particles (they come in runs:
-/// read and written through memory, each particle's box waited on the last one's store; the sweep 40.5 → 35 ms
-/// of the fracture scene's run, timers inside the pass, 2026-11-29). Maxima and boxes are the same in any
+/// Measures the particles `ps` (each listed once across all calls): writes each one's squared move `|q - x0|²`
+/// to `out` and (`fresh`: the candidates have reference positions `xb`) its drift `|x0 - xb|`, rounded up to
+/// `f32`, to `drifts`; returns the largest squares of both and (`boxes` > 0: the model's body count) each body's
+/// box of drifts and largest drift. A body's box is kept in registers along a run of its particles (they come in
+/// runs: read and written through memory, each particle's box waited on the last one's store; the sweep 40.5 → 35
+/// ms of the fracture scene's run, timers inside the pass, 2026-11-29). Maxima and boxes are the same in any
 /// grouping, so the result is.
 #[allow(clippy::too_many_arguments)]
 pub(super) fn sweep<R: Real>(
@@ -80,7 +80,7 @@ pub(super) fn sweep<R: Real>(
         let d2 = (q[i].to_dvec3() - x).length_squared();
         // SAFETY: `out` and `drifts` have an entry per particle, and each particle is in one call's `ps` once, so
         // no two calls (in parallel chunks) write the same entry; nothing reads them meanwhile.
-        unsafe { out.write(i, d2.sqrt()) };
+        unsafe { out.write(i, d2) };
         d2_max = d2_max.max(d2);
         if fresh {
             let drift = x - xb[i].to_dvec3();
