@@ -301,10 +301,7 @@ impl<R: Real> CpuSolver<R> {
         }
         self.sized_for = Some(key);
         self.bound = None;
-        // (A fracture's change is the contact pass's to take in; any other change of counts starts it afresh.)
-        if !self.ct.change_pending() {
-            self.ct.invalidate();
-        }
+        self.ct.invalidate();
         self.f.resize(m, self.config.integrator == Integrator::ImplicitEuler);
         let n = m.particle_count();
         let fused = self.f.runs && self.config.integrator == Integrator::SymplecticEuler;
@@ -614,14 +611,14 @@ impl<R: Real> Solver<R> for CpuSolver<R> {
         (0..steps).try_for_each(|_| self.step_inner(model, state, dt))
     }
 
-    fn notify_model_changed(&mut self, model: &Model<R>, delta: &TopologyDelta) {
+    fn notify_model_changed(&mut self, _model: &Model<R>, delta: &TopologyDelta) {
         // Buffers (and the stability bound) are sized lazily from the model's counts on the next step. A leak
         // alone changes only gas amounts, which every step reads anyway.
         if !delta.is_empty() {
             self.sized_for = None;
             self.bound = None;
             self.f.measured = false;
-            self.ct.model_changed(model, delta);
+            self.ct.invalidate();
         }
     }
 

@@ -37,25 +37,16 @@ impl<R: Real> ContactScratch<R> {
     /// no longer is may stay (the per-step distances drop it), so a refreshed list gives the same pairs within
     /// reach, in the same order, as a fresh one. False (nothing done) when more than a quarter of the particles
     /// are hot: a build is then cheaper (measured: with half, the 64² cloth_fold scene spent 12.7 s in contact
-    /// against 10.2 s with builds alone; with a quarter, 7.9 s). The particles a fracture touched since the last
-    /// step are hot as well (see [`ContactScratch::model_changed`]).
+    /// against 10.2 s with builds alone; with a quarter, 7.9 s).
     pub(super) fn refresh(&mut self, m: &Model<R>, slack: f64) -> bool {
         let el = self.el.as_ref().expect("elements prepared");
         let (x0, xb) = (&self.x0, &self.xb);
-        let mut hot: Vec<u32> = el
+        let hot: Vec<u32> = el
             .particles
             .iter()
             .copied()
             .filter(|&i| (x0[i as usize].to_dvec3() - xb[i as usize].to_dvec3()).length() > slack)
             .collect();
-        // And those a fracture touched (see `model_changed`), where they take part in contact.
-        if !self.touched_by_fracture.is_empty() {
-            let t = &mut self.touched_by_fracture;
-            t.retain(|i| el.particles.binary_search(i).is_ok());
-            hot.append(t);
-            hot.sort_unstable();
-            hot.dedup();
-        }
         if hot.len() * 4 > el.particles.len() {
             return false;
         }

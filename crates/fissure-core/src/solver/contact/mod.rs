@@ -169,8 +169,7 @@ pub(super) struct ContactScratch<R: Real> {
     /// Each contact particle's squared move this step \[m²\] (`|q - x0|²`; the others' entries are stale): a
     /// pair's reach is the thickness plus its particles' largest move over `GAMMA`. Squared: the square root is
     /// taken where a move is used (`sqrt` of the largest square is the largest root, to the bit: the root is
-    /// monotonic and correctly rounded), for the particles of the pairs, not in the sweep over every particle,
-    /// whose time it bound (`sqrtsd`'s throughput; 40 % of the sweep's samples on the fracture scene).
+    /// monotonic and correctly rounded), for the particles of the pairs, not in the sweep over every particle.
     moved: Vec<f64>,
     /// Each contact particle's drift since its reference position `xb` \[m\], rounded up (see `near`): in
     /// `f32` from the squared drift (rounded twice, each time by at most half an ulp: `4 f32::EPSILON` of it more
@@ -208,79 +207,13 @@ pub(super) struct ContactScratch<R: Real> {
     /// Rebuild the candidate lists at every step (a check of the Verlet list: see
     /// `CpuSolver::rebuild_contact_lists_every_step`).
     rebuild_always: bool,
-    /// After a fracture (see [`ContactScratch::model_changed`]): the edges the candidates' edge ids refer to, and
-    /// the particles the fracture touched, to be searched again by the next step's refresh.
-    old_edges: Option<Vec<[u32; 2]>>,
-    touched_by_fracture: Vec<u32>,
 }
 
 impl<R: Real> ContactScratch<R> {
-    /// Forgets everything derived from the model (after an edit, or a model this scratch has not seen).
+    /// Forgets everything derived from the model (after a fracture or an edit).
     pub fn invalidate(&mut self) {
         self.el = None;
         self.radius = 0.0;
-        self.old_edges = None;
-        self.touched_by_fracture.clear();
-    }
-
-    /// True while a fracture's change waits for the next step (see [`ContactScratch::model_changed`]).
-    pub fn change_pending(&self) -> bool {
-        self.old_edges.is_some()
-    }
-
-    /// After a fracture: the candidate lists are kept and the next step refreshes them around what the fracture
-    /// touched, instead of building them again. Particles are only appended by a fracture and triangles kept in
-    /// place (rewritten or appended) unless they were ordered by body again (`delta.whole`: then everything is
-    /// forgotten), so a vertex–triangle candidate keeps its ids, and an edge–edge candidate's edges are found again
-    /// by their ends among the new elements (see `remap`). Every element whose particles, corners or body changed
-    /// has a particle in `touched_by_fracture` (the particles whose mass or body changed, whose spring or triangle
-    /// rows changed, the new ones, and the corners of the rewritten and new triangles), so the refresh searches
-    /// it again and drops its old pairs: the lists are then those a build would make. Measured (2026-11-29,
-    /// `fissure run`, alternated with the build before, the same bits): the 64² `cloth_fold` scene tearing
-    /// (`--set body[0].tear_strength=20 --set solver.duration=0.8`, 982 fracture events) built its lists 210
-    /// times instead of 640, contact 4.27–4.92 → 4.04–4.09 s; at `tear_strength=30` (72 events) 2.78 → 2.23 s.
-    /// The fracture scene's 642-vertex ball: 231 builds instead of 317, but no time saved (a refresh there costs
-    /// ~215 µs, a build ~175: the grids over all its elements are most of either).
-    pub fn model_changed(&mut self, m: &Model<R>, delta: &TopologyDelta) {
-        if delta.whole || delta.old_counts[0] > m.particle_count() {
-            self.invalidate();
-            return;
-        }
-        if let Some(el) = self.el.take()
-            && self.radius > 0.0
-        {
-            self.old_edges = Some(el.edges);
-        }
-        if self.old_edges.is_none() {
-            self.invalidate();
-            return;
-        }
-        let (n, nt) = (m.particle_count(), m.tri_count());
-        let new_tris = delta.old_counts[2].min(nt)..nt;
-        let t = &mut self.touched_by_fracture;
-        t.extend(delta.particles.iter().chain(&delta.rows).copied().filter(|&i| (i as usize) < n));
-        t.extend(delta.old_counts[0] as u32..n as u32);
-        for k in delta.triangles.iter().map(|&k| k as usize).filter(|&k| k < nt).chain(new_tris) {
-            t.extend(m.tri_indices[k]);
-        }
-    }
-
-    /// The lists after a fracture, in the ids of the new elements `el` (see [`ContactScratch::model_changed`]):
-    /// each edge–edge candidate's edges found again by their ends (an edge no longer in the surface drops its
-    /// candidates; the surviving edges keep their order, so the list stays sorted), vertex–triangle candidates as
-    /// they are. New particles take their positions now as references (they are searched again anyway).
-    fn remap(&mut self, old_edges: &[[u32; 2]], el: &Elements) {
-        let find = |e: u32| el.edges.binary_search(&old_edges[e as usize]).ok().map(|k| k as u32);
-        self.ee.retain_mut(|c| match (find(c.ids[0]), find(c.ids[1])) {
-            (Some(a), Some(b)) => {
-                c.ids = [a, b];
-                true
-            }
-            _ => false,
-        });
-        let k = self.xb.len().min(self.x0.len());
-        self.xb.truncate(k);
-        self.xb.extend_from_slice(&self.x0[k..]);
     }
 
     /// The candidates closer than their reach at `x0`, as pairs with weights and normals. A pair's reach is
@@ -393,15 +326,8 @@ impl<R: Real> CpuSolver<R> {
         let t0 = Instant::now();
         let c = &mut self.ct;
         if c.el.is_none() {
-            let el = Elements::of(m);
-            match c.old_edges.take() {
-                Some(old) if c.radius > 0.0 => c.remap(&old, &el),
-                _ => {
-                    c.radius = 0.0;
-                    c.touched_by_fracture.clear();
-                }
-            }
-            c.el = Some(el);
+            c.el = Some(Elements::of(m));
+            c.radius = 0.0;
         }
         let el = c.el.as_ref().expect("just set");
         let h_max = el.h_max;
@@ -438,7 +364,6 @@ impl<R: Real> CpuSolver<R> {
         // past SHRINK times the radius this step wants, it is built again at that radius.
         let oversize = c.radius > SHRINK * (SKIN * r + h_max);
         let valid = !c.rebuild_always
-            && c.touched_by_fracture.is_empty()
             && fresh
             && !oversize
             && (c.radius - 2.0 * drift >= r || still_valid(m, &mv, &c.gaps, c.radius, r));
@@ -448,7 +373,6 @@ impl<R: Real> CpuSolver<R> {
         // 0.15 × → 10.5–12.3 ms; 0.4 × → 14.6–15.4 ms (259 refreshes); builds alone 11.9–12.7 ms.
         let slack = 0.25 * (c.radius - r);
         let refreshed = !valid && !oversize && fresh && !c.rebuild_always && c.radius > r && c.refresh(m, slack);
-        c.touched_by_fracture.clear();
         // The largest drift since the references now: a refresh moved those of the particles that drifted more
         // than `slack`, a build all of them.
         let drift = if valid {
