@@ -10,7 +10,7 @@ use crate::contact::geometry::{Box32, closest_on_segments, closest_on_triangle, 
 use crate::contact::grid::HashGrid;
 use crate::contact::{Elements, GAMMA, RELAX, same_origin};
 use glam::DVec3;
-use moves::{CLOSING_BODIES, Moves, still_valid};
+use moves::{CLOSING_BODIES, still_valid};
 #[cfg(feature = "parallel")]
 use rayon::prelude::*;
 
@@ -346,7 +346,7 @@ impl<R: Real> CpuSolver<R> {
         let mv = if !(crate::par::pooled(el.particles.len()) && crate::par::rayon_free()) {
             moves(&el.particles)
         } else {
-            el.particles.par_chunks(TASK).map(moves).reduce(|| Moves::new(boxes), Moves::merge)
+            el.particles.par_chunks(TASK).map(moves).reduce(|| moves::Moves::new(boxes), moves::Moves::merge)
         };
         #[cfg(not(feature = "parallel"))]
         let mv = moves(&el.particles);
