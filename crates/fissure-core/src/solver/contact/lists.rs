@@ -85,20 +85,19 @@ impl<R: Real> ContactScratch<R> {
             let (b, p) = (m.particle_body[i as usize] as usize, x(i));
             boxes[b] = (boxes[b].0.min(p), boxes[b].1.max(p));
         }
-        // Each body's others' boxes (those with particles in contact) as `Box32`s (rounded outward: a box they meet
-        // may be kept that the `f64` boxes would not, never the reverse; the searches' exact tests decide the
-        // pairs). Every element a list op visits takes this test, and most fail it (the fracture scene's grids
-        // keep ~10 % of the ball's elements): one packed compare a box instead of six scalar ones.
-        let others: Vec<Vec<Box32>> = (0..boxes.len())
-            .map(|a| {
-                let other = boxes.iter().enumerate().filter(|&(b, bx)| b != a && bx.0.is_finite());
-                other.map(|(_, &(lo, hi))| Box32::new(lo, hi)).collect()
-            })
+        // The bodies' boxes (those with particles in contact) as `Box32`s with their bodies (rounded outward: a box
+        // they meet may be kept that the `f64` boxes would not, never the reverse; the searches' exact tests decide
+        // the pairs). Every element a list op visits takes this test, and most fail it (the fracture scene's grids
+        // keep ~10 % of the ball's elements): one packed compare a box instead of six scalar ones. One list for all
+        // the bodies, each skipping its own (a list of the others per body would cost bodies² a list op).
+        let boxes32: Vec<(usize, Box32)> = (boxes.iter().enumerate())
+            .filter(|(_, bx)| bx.0.is_finite())
+            .map(|(b, &(lo, hi))| (b, Box32::new(lo, hi)))
             .collect();
         let worth = |body: u32, lo: DVec3, hi: DVec3| {
             m.body_self_contact[body as usize] || {
                 let q = Box32::new(lo, hi);
-                others[body as usize].iter().any(|o| !o.apart(&q))
+                boxes32.iter().any(|&(b, ref o)| b != body as usize && !o.apart(&q))
             }
         };
         let nb = m.body_count();

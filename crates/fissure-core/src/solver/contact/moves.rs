@@ -122,13 +122,15 @@ pub(super) fn still_valid<R: Real>(m: &Model<R>, mv: &Moves, gaps: &[f64], radiu
         return false;
     }
     let seen = |b: usize| mv.lo[b].x <= mv.hi[b].x;
+    // Each body's largest drift, once (not once per pair of bodies).
+    let largest: Vec<f64> = mv.r2s.iter().map(|r2| r2.sqrt()).collect();
     (0..nb).all(|a| {
         (a..nb).all(|b| {
             if !(seen(a) && seen(b) && (a != b || m.body_self_contact[a])) {
                 return true;
             }
             let boxed = (mv.hi[a] - mv.lo[b]).abs().max((mv.hi[b] - mv.lo[a]).abs()).length();
-            let closing = boxed.min(mv.r2s[a].sqrt() + mv.r2s[b].sqrt());
+            let closing = boxed.min(largest[a] + largest[b]);
             radius.max(gaps[a * nb + b]) - closing >= r
         })
     })
