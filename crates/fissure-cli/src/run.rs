@@ -391,8 +391,13 @@ fn print_summary(scene: &Scene, cfg: &RunConfig, s: &RunSummary) {
     let any = w.solver.as_any();
     // The CPU keeps candidate lists between steps; the GPU builds its grids at every substep.
     let contact = match (any.downcast_ref::<fissure::CpuSolver<f32>>(), any.downcast_ref::<GpuSolver>()) {
-        (Some(c), _) => Some((c.contact_stats(), c.contact_stats().builds, "candidate lists built")),
-        (_, Some(g)) => Some((g.contact_stats(), g.contact_stats().steps, "grids built (one per substep on the GPU)")),
+        (Some(c), _) => {
+            let st = c.contact_stats();
+            Some((st, st.builds, format!("candidate lists built ({} refreshed)", st.refreshes)))
+        }
+        (_, Some(g)) => {
+            Some((g.contact_stats(), g.contact_stats().steps, "grids built (one per substep on the GPU)".to_string()))
+        }
         _ => None,
     };
     if let Some((c, count, built)) = contact.filter(|_| w.model.has_contact()) {
