@@ -198,6 +198,8 @@ pub(super) struct ContactScratch<R: Real> {
     grid: [HashGrid<Box32>; 2],
     egrid: [HashGrid<Box32>; 2],
     tgrid: [HashGrid<Box32>; 2],
+    /// Each particle's first test in a list op (see `lists`; kept: the ops run often).
+    near_parts: Vec<bool>,
     /// The searched triangles' centroids and search boxes (refreshes only; `None`: not searched).
     centroids: Vec<Option<(DVec3, Box32)>>,
     /// Each edge's box at `x0` when the candidates were found (the searcher's own box, and the source of the edge
