@@ -190,7 +190,7 @@ unsafe fn block(q: *const f32, t: &[[u32; 3]], anchor: Vec3, out: *mut f32, lane
 /// AVX2; `base + off[l] .. + 4` readable for every lane.
 #[target_feature(enable = "avx2")]
 #[inline]
-pub(super) unsafe fn soa8(base: *const f32, off: [usize; 8]) -> (__m256, __m256, __m256) {
+pub(crate) unsafe fn soa8(base: *const f32, off: [usize; 8]) -> (__m256, __m256, __m256) {
     // (A macro, not a closure: see `block`.)
     macro_rules! pair {
         ($l:expr) => {

@@ -8,7 +8,7 @@
 //! the grid wind pass instead (`forces/wind_grid.rs`): whole rows of quads, summed per particle without a gather.
 
 #[cfg(target_arch = "x86_64")]
-mod cross_avx2;
+pub(crate) mod cross_avx2;
 #[cfg(target_arch = "x86_64")]
 pub(crate) mod gather_avx2;
 pub mod pressure;
