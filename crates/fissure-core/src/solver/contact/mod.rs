@@ -342,7 +342,8 @@ impl<R: Real> CpuSolver<R> {
         c.moved.resize(m.particle_count(), 0.0);
         c.drifts.resize(m.particle_count(), 0.0);
         let (out, drifts) = (Scatter(c.moved.as_mut_ptr()), Scatter(c.drifts.as_mut_ptr()));
-        let moves = |ps: &[u32]| moves::sweep::<R>(ps, x0, q, xb, &m.particle_body, fresh, boxes, out, drifts);
+        let reads = moves::Reads { x0, q, xb, body: &m.particle_body, fresh, boxes };
+        let moves = |ps: &[u32]| moves::sweep::<R>(ps, reads, (out, drifts));
         // (Maxima and boxes: the same in any grouping.)
         #[cfg(feature = "parallel")]
         let mv = if !(crate::par::pooled(el.particles.len()) && crate::par::rayon_free()) {

@@ -118,55 +118,54 @@ impl Acc {
 const DRIFT_UP: f32 = 1.0 + 4.0 * f32::EPSILON;
 
 /// Where the sweep writes each particle's squared move and drift.
-type Sc = (Scatter<f64>, Scatter<f32>);
+pub(super) type Sc = (Scatter<f64>, Scatter<f32>);
+
+/// What a sweep reads: the particles' positions at the start of the step (`x0`), now (`q`) and at their
+/// references (`xb`, read when `fresh`: the candidates have references), their bodies, and the model's body count
+/// where each body's box of drifts is kept (else 0).
+#[derive(Clone, Copy)]
+pub(super) struct Reads<'a, V> {
+    pub x0: &'a [V],
+    pub q: &'a [V],
+    pub xb: &'a [V],
+    pub body: &'a [u32],
+    pub fresh: bool,
+    pub boxes: usize,
+}
+
+impl<'a, V> Reads<'a, V> {
+    /// The same reads with the positions as other arrays.
+    #[cfg(target_arch = "x86_64")]
+    fn with<W>(self, x0: &'a [W], q: &'a [W], xb: &'a [W]) -> Reads<'a, W> {
+        Reads { x0, q, xb, body: self.body, fresh: self.fresh, boxes: self.boxes }
+    }
+}
 
 /// Measures the particles `ps` (each listed once across all calls): writes each one's squared move `|q - x0|²`
-/// to `out` and (`fresh`: the candidates have reference positions `xb`) its drift `|x0 - xb|`, rounded up to
-/// `f32`, to `drifts`; returns the largest squares of both and (`boxes` > 0: the model's body count) each body's
-/// box of drifts and largest drift. A body's box is kept in registers along a run of its particles (they come in
+/// to `sc.0` and (`fresh`) its drift `|x0 - xb|`, rounded up to `f32`, to `sc.1`; returns the largest squares of
+/// both and (`boxes` > 0) each body's box of drifts and largest drift. A body's box is kept in registers along a run of its particles (they come in
 /// runs: read and written through memory, each particle's box waited on the last one's store; the sweep 40.5 → 35
 /// ms of the fracture scene's run, timers inside the pass, 2026-11-29). Maxima and boxes are the same in any
 /// grouping, so the result is. In `f32` on AVX2, eight particles at a time ([`sweep_avx2`]).
-#[allow(clippy::too_many_arguments)]
-pub(super) fn sweep<R: Real>(
-    ps: &[u32],
-    x0: &[R::V],
-    q: &[R::V],
-    xb: &[R::V],
-    body: &[u32],
-    fresh: bool,
-    boxes: usize,
-    out: Scatter<f64>,
-    drifts: Scatter<f32>,
-) -> Moves {
+pub(super) fn sweep<R: Real>(ps: &[u32], r: Reads<R::V>, sc: Sc) -> Moves {
     #[cfg(target_arch = "x86_64")]
     if std::any::TypeId::of::<R>() == std::any::TypeId::of::<f32>() && crate::isa::avx2() {
-        let (x0, q, xb) = (flat::<R>(x0), flat::<R>(q), flat::<R>(xb));
+        let r = r.with(flat::<R>(r.x0), flat::<R>(r.q), flat::<R>(r.xb));
         // SAFETY: AVX2 checked just above; the writes are as the caller promises (see `Acc::one`).
-        return unsafe { sweep_avx2(ps, x0, q, xb, body, fresh, boxes, (out, drifts)) };
+        return unsafe { sweep_avx2(ps, r, sc) };
     }
-    sweep_scalar::<R>(ps, x0, q, xb, body, fresh, boxes, (out, drifts))
+    sweep_scalar::<R>(ps, r, sc)
 }
 
 /// [`sweep`] one particle at a time.
-#[allow(clippy::too_many_arguments)]
-fn sweep_scalar<R: Real>(
-    ps: &[u32],
-    x0: &[R::V],
-    q: &[R::V],
-    xb: &[R::V],
-    body: &[u32],
-    fresh: bool,
-    boxes: usize,
-    (out, drifts): Sc,
-) -> Moves {
-    let mut acc = Acc::new(boxes);
+fn sweep_scalar<R: Real>(ps: &[u32], r: Reads<R::V>, sc: Sc) -> Moves {
+    let mut acc = Acc::new(r.boxes);
     for &i in ps {
         let i = i as usize;
-        let xbi = fresh.then(|| xb[i].to_dvec3());
-        // SAFETY: `out` and `drifts` have an entry per particle, and each particle is in one call's `ps` once, so
-        // no two calls (in parallel chunks) write the same entry; nothing reads them meanwhile.
-        unsafe { acc.one(i, x0[i].to_dvec3(), q[i].to_dvec3(), xbi, body, (out, drifts)) };
+        let xb = r.fresh.then(|| r.xb[i].to_dvec3());
+        // SAFETY: the entries `i` of `sc` exist, and each particle is in one call's `ps` once, so no two calls (in
+        // parallel chunks) write the same entry; nothing reads them meanwhile.
+        unsafe { acc.one(i, r.x0[i].to_dvec3(), r.q[i].to_dvec3(), xb, r.body, sc) };
     }
     acc.finish()
 }
@@ -194,17 +193,8 @@ fn flat<R: Real>(x: &[R::V]) -> &[f32] {
 /// AVX2; `x0`, `q`, `xb` (when `fresh`) hold three values per particle of `ps`, and the writes are as in `Acc::one`.
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2")]
-#[allow(clippy::too_many_arguments)]
-unsafe fn sweep_avx2(
-    ps: &[u32],
-    x0: &[f32],
-    q: &[f32],
-    xb: &[f32],
-    body: &[u32],
-    fresh: bool,
-    boxes: usize,
-    sc: Sc,
-) -> Moves {
+unsafe fn sweep_avx2(ps: &[u32], r: Reads<f32>, sc: Sc) -> Moves {
+    let Reads { x0, q, xb, body, fresh, boxes } = r;
     use crate::forces::cross_avx2::soa8;
     use std::arch::x86_64::*;
     // (Macros and plain loops, not closures or `map`: those are compiled without this function's AVX2, and their
@@ -408,12 +398,13 @@ mod tests {
                 let run = |avx: bool| {
                     let (mut out, mut drifts) = (vec![0.0f64; n], vec![0.0f32; n]);
                     let sc = (Scatter(out.as_mut_ptr()), Scatter(drifts.as_mut_ptr()));
+                    let r = Reads { x0: &x0[..], q: &q[..], xb: &xb[..], body: &body[..], fresh, boxes };
                     let mv = if avx {
-                        let (a, b, c) = (flat::<f32>(&x0), flat::<f32>(&q), flat::<f32>(&xb));
+                        let flat = r.with(flat::<f32>(&x0), flat::<f32>(&q), flat::<f32>(&xb));
                         // SAFETY: AVX2 checked above; the arrays hold every particle.
-                        unsafe { sweep_avx2(ps, a, b, c, &body, fresh, boxes, sc) }
+                        unsafe { sweep_avx2(ps, flat, sc) }
                     } else {
-                        sweep_scalar::<f32>(ps, &x0, &q, &xb, &body, fresh, boxes, sc)
+                        sweep_scalar::<f32>(ps, r, sc)
                     };
                     let bits = |v: &[DVec3]| v.iter().map(|x| x.to_array().map(f64::to_bits)).collect::<Vec<_>>();
                     let r2s: Vec<u64> = mv.r2s.iter().map(|x| x.to_bits()).collect();
