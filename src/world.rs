@@ -118,7 +118,9 @@ impl<R: Real> World<R> {
     }
 
     /// Advances by `duration` \[s\] in steps of `dt` \[s\], the last ones shortened to land exactly: never to less
-    /// than half of `dt` when `duration` is at least that (see [`last_steps`]).
+    /// than half of `dt` when `duration` is at least that (a remainder under half a step is shared by the last two
+    /// steps: a step of nanoseconds at the end of a frame made the contact pass's push, meant for a whole step,
+    /// set pieces flying).
     pub fn advance(&mut self, duration: f64, dt: f64) -> Result<Advance, StepError> {
         now(self.advance_async(duration, dt))
     }
