@@ -65,15 +65,18 @@ impl<R: Real> ContactScratch<R> {
         let el = self.el.as_ref().expect("elements prepared");
         let x0 = &self.xb;
         let x = |i: u32| x0[i as usize].to_dvec3();
-        // Mean and longest edge set the cells and the edge query's reach.
-        let (mut l_sum, mut l_max) = (0.0, 0.0f64);
+        // The edges' root mean square and longest length set the cells and the edge query's reach, from the
+        // squares: the longest is the root of the largest square to the bit, and the cells' size does not change
+        // the lists. (A root an edge at every list op, and every edge's box below, cost the fracture scene's run:
+        // its contact stage 0.131–0.154 → 0.126–0.133 s without them, eight alternated runs, 2026-11-29.)
+        let (mut l2_sum, mut l2_max) = (0.0, 0.0f64);
         for &[a, b] in &el.edges {
-            let l = (x(b) - x(a)).length();
-            l_sum += l;
-            l_max = l_max.max(l);
+            let l2 = (x(b) - x(a)).length_squared();
+            l2_sum += l2;
+            l2_max = l2_max.max(l2);
         }
-        let l_mean = l_sum / el.edges.len().max(1) as f64;
-        let cell = radius.max(l_mean).max(1e-9);
+        let (l_rms, l_max) = ((l2_sum / el.edges.len().max(1) as f64).sqrt(), l2_max.sqrt());
+        let cell = radius.max(l_rms).max(1e-9);
         let parts = &el.particles;
         let edges = &el.edges;
         let allowed = |a: u32, b: u32| a != b || m.body_self_contact[a as usize];
@@ -136,9 +139,13 @@ impl<R: Real> ContactScratch<R> {
             let b = m.particle_body[v as usize];
             near[v as usize] && worth(b, p - pad, p + pad)
         };
+        // (Only where an end passed its first test: no other edge's box is read.)
         self.eboxes.clear();
-        self.eboxes.extend(edges.iter().map(|&[i, j]| {
-            let (p, q) = (x(i), x(j));
+        self.eboxes.extend(edges.iter().map(|e| {
+            if !any_near(e) {
+                return [DVec3::ZERO; 2];
+            }
+            let (p, q) = (x(e[0]), x(e[1]));
             [p.min(q), p.max(q)]
         }));
         // A triangle's search box, and whether a build searches from it.
@@ -335,14 +342,17 @@ impl<R: Real> ContactScratch<R> {
             for &e in ks {
                 let e = e as usize;
                 let [a0, a1] = edges[e];
-                let (p, q) = (x(a0), x(a1));
-                let (c1, h1) = (0.5 * (p + q), 0.5 * (q - p));
+                if !any_near(&[a0, a1]) {
+                    continue;
+                }
                 let [elo, ehi] = eboxes[e];
                 let (lo, hi) = (elo - reach, ehi + reach);
                 let eb = m.particle_body[a0 as usize];
-                if !any_near(&[a0, a1]) || !worth(eb, lo, hi) {
+                if !worth(eb, lo, hi) {
                     continue;
                 }
+                let (p, q) = (x(a0), x(a1));
+                let (c1, h1) = (0.5 * (p + q), 0.5 * (q - p));
                 let from = out.len();
                 // (Most edges the query reaches are not within `radius`: their boxes tell.)
                 // (The same pair is kept by one search only: the index test rides in the grid's loop.)
