@@ -60,27 +60,30 @@ struct Acc {
     lo: DVec3,
     hi: DVec3,
     r2_run: f64,
-    /// Whether the bodies' boxes are measured.
-    boxes: bool,
 }
 
 impl Acc {
     fn new(boxes: usize) -> Self {
         let mv = Moves::new(boxes);
         let (lo, hi) = (DVec3::INFINITY, DVec3::NEG_INFINITY);
-        Acc { mv, d2_max: 0.0, r2_max: 0.0, run: usize::MAX, lo, hi, r2_run: 0.0, boxes: boxes > 0 }
+        Acc { mv, d2_max: 0.0, r2_max: 0.0, run: usize::MAX, lo, hi, r2_run: 0.0 }
     }
 
-    /// Folds drifts of body `b` (their box and largest square) into the run, starting a new run at a new body.
+    /// Whether the bodies' boxes are measured.
     #[inline(always)]
-    fn body(&mut self, b: usize, lo: DVec3, hi: DVec3, r2: f64) {
+    fn boxes(&self) -> bool {
+        !self.mv.r2s.is_empty()
+    }
+
+    /// Makes body `b` the run's: a run of another body ends (folded into its body's) and an empty one starts.
+    #[inline(always)]
+    fn enter(&mut self, b: usize) {
         if b != self.run {
             if self.run != usize::MAX {
                 self.mv.fold(self.run, self.lo, self.hi, self.r2_run);
             }
             (self.run, self.lo, self.hi, self.r2_run) = (b, DVec3::INFINITY, DVec3::NEG_INFINITY, 0.0);
         }
-        (self.lo, self.hi, self.r2_run) = (self.lo.min(lo), self.hi.max(hi), self.r2_run.max(r2));
     }
 
     /// Particle `i`, at `x` (start of the step), `q` (now) and `xb` (its reference; `None` unless fresh).
@@ -99,8 +102,9 @@ impl Acc {
             self.r2_max = self.r2_max.max(r2);
             // SAFETY: the caller's.
             unsafe { sc.1.write(i, (r2 as f32).sqrt() * DRIFT_UP) };
-            if self.boxes {
-                self.body(body[i] as usize, drift, drift, r2);
+            if self.boxes() {
+                self.enter(body[i] as usize);
+                (self.lo, self.hi, self.r2_run) = (self.lo.min(drift), self.hi.max(drift), self.r2_run.max(r2));
             }
         }
     }
@@ -228,6 +232,8 @@ unsafe fn sweep_avx2(ps: &[u32], r: Reads<f32>, sc: Sc) -> Moves {
     let (mut vd2, mut vr2) = (_mm256_setzero_pd(), _mm256_setzero_pd());
     let (mut lx, mut ly, mut lz, mut hx, mut hy, mut hz) = (inf, inf, inf, ninf, ninf, ninf);
     let mut vrun = _mm256_setzero_pd();
+    // Whether those lanes hold drifts not yet folded (a lone particle or a new run folds them only then).
+    let mut pending = false;
     macro_rules! fold {
         () => {{
             let (a, b, c, d, e, f, r) =
@@ -240,8 +246,11 @@ unsafe fn sweep_avx2(ps: &[u32], r: Reads<f32>, sc: Sc) -> Moves {
     }
     macro_rules! flush {
         () => {{
-            fold!();
-            (lx, ly, lz, hx, hy, hz, vrun) = (inf, inf, inf, ninf, ninf, ninf, _mm256_setzero_pd());
+            if pending {
+                fold!();
+                (lx, ly, lz, hx, hy, hz, vrun) = (inf, inf, inf, ninf, ninf, ninf, _mm256_setzero_pd());
+                pending = false;
+            }
         }};
     }
     let up = _mm_set1_ps(DRIFT_UP);
@@ -267,7 +276,7 @@ unsafe fn sweep_avx2(ps: &[u32], r: Reads<f32>, sc: Sc) -> Moves {
             let b = body[idx[0] as usize] as usize;
             if b != acc.run {
                 flush!();
-                acc.body(b, DVec3::INFINITY, DVec3::NEG_INFINITY, 0.0);
+                acc.enter(b);
             }
         }
         let mut off = [0usize; 8];
@@ -320,11 +329,14 @@ unsafe fn sweep_avx2(ps: &[u32], r: Reads<f32>, sc: Sc) -> Moves {
                 (lx, ly, lz) = (_mm256_min_pd(ex, lx), _mm256_min_pd(ey, ly), _mm256_min_pd(ez, lz));
                 (hx, hy, hz) = (_mm256_max_pd(ex, hx), _mm256_max_pd(ey, hy), _mm256_max_pd(ez, hz));
                 vrun = _mm256_max_pd(r2, vrun);
+                pending = true;
             }
         }
         k += 8;
     }
-    fold!();
+    if pending {
+        fold!();
+    }
     let (d, r) = (lanes!(vd2), lanes!(vr2));
     for l in 0..4 {
         (acc.d2_max, acc.r2_max) = (acc.d2_max.max(d[l]), acc.r2_max.max(r[l]));
