@@ -285,6 +285,17 @@ pub(crate) fn va_as_f32<R: Real>(x: &[R::VA]) -> &[f32] {
     unsafe { std::slice::from_raw_parts(x.as_ptr().cast::<f32>(), 4 * x.len()) }
 }
 
+/// `x`'s vectors ([`Real::V`]: glam's [`Vec3`], `#[repr(C)]`) as `f32` components, three a vector, where `R` is
+/// `f32` (the caller checks; otherwise it panics).
+#[cfg(target_arch = "x86_64")]
+#[inline(always)]
+pub(crate) fn v_as_f32<R: Real>(x: &[R::V]) -> &[f32] {
+    assert_eq!(std::any::TypeId::of::<R>(), std::any::TypeId::of::<f32>());
+    const { assert!(std::mem::size_of::<Vec3>() == 12) };
+    // SAFETY: `R` is `f32` (asserted), so `R::V` is `Vec3`: `#[repr(C)]`, three `f32`s (size checked above).
+    unsafe { std::slice::from_raw_parts(x.as_ptr().cast::<f32>(), 3 * x.len()) }
+}
+
 /// [`va_as_f32`], mutable.
 #[cfg(target_arch = "x86_64")]
 #[inline(always)]

@@ -3,6 +3,8 @@
 
 use super::Scatter;
 use crate::model::Model;
+#[cfg(target_arch = "x86_64")]
+use crate::real::v_as_f32;
 use crate::real::{Real, Vector3};
 use glam::DVec3;
 
@@ -154,7 +156,7 @@ impl<'a, V> Reads<'a, V> {
 pub(super) fn sweep<R: Real>(ps: &[u32], r: Reads<R::V>, sc: Sc) -> Moves {
     #[cfg(target_arch = "x86_64")]
     if std::any::TypeId::of::<R>() == std::any::TypeId::of::<f32>() && crate::isa::avx2() {
-        let r = r.with(flat::<R>(r.x0), flat::<R>(r.q), flat::<R>(r.xb));
+        let r = r.with(v_as_f32::<R>(r.x0), v_as_f32::<R>(r.q), v_as_f32::<R>(r.xb));
         // SAFETY: AVX2 checked just above; the writes are as the caller promises (see `Acc::one`).
         return unsafe { sweep_avx2(ps, r, sc) };
     }
@@ -172,15 +174,6 @@ fn sweep_scalar<R: Real>(ps: &[u32], r: Reads<R::V>, sc: Sc) -> Moves {
         unsafe { acc.one(i, r.x0[i].to_dvec3(), r.q[i].to_dvec3(), xb, r.body, sc) };
     }
     acc.finish()
-}
-
-/// `f32` 3-vectors ([`Real::V`] of `f32`: [`glam::Vec3`], three values) as their values; panics for `f64`.
-#[cfg(target_arch = "x86_64")]
-fn flat<R: Real>(x: &[R::V]) -> &[f32] {
-    assert_eq!(std::any::TypeId::of::<R>(), std::any::TypeId::of::<f32>());
-    const { assert!(std::mem::size_of::<glam::Vec3>() == 12) };
-    // SAFETY: `R` is `f32` (asserted), so `R::V` is `Vec3`: `#[repr(C)]`, three `f32`s (size checked above).
-    unsafe { std::slice::from_raw_parts(x.as_ptr().cast::<f32>(), 3 * x.len()) }
 }
 
 /// [`sweep`] in `f32` on AVX2: eight particles at a time where they are of one body (with `boxes`) and are not the
@@ -412,7 +405,7 @@ mod tests {
                     let sc = (Scatter(out.as_mut_ptr()), Scatter(drifts.as_mut_ptr()));
                     let r = Reads { x0: &x0[..], q: &q[..], xb: &xb[..], body: &body[..], fresh, boxes };
                     let mv = if avx {
-                        let flat = r.with(flat::<f32>(&x0), flat::<f32>(&q), flat::<f32>(&xb));
+                        let flat = r.with(v_as_f32::<f32>(&x0), v_as_f32::<f32>(&q), v_as_f32::<f32>(&xb));
                         // SAFETY: AVX2 checked above; the arrays hold every particle.
                         unsafe { sweep_avx2(ps, flat, sc) }
                     } else {
