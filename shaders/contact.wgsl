@@ -19,9 +19,10 @@
 // Gauss–Seidel. Velocity changes are summed in fixed point with integer atomics (no float atomics): integer sums
 // do not depend on the order, so a run is deterministic although the pairs are listed in a racy order.
 
-// Twins of `fissure_core::contact::GAMMA` and `RELAX`.
+// Twins of `fissure_core::contact::GAMMA`, `RELAX` and `PUSH_TIME`.
 const GAMMA: f32 = 0.45;
 const RELAX: f32 = 0.1;
+const PUSH_TIME: f32 = 1e-4;
 // `c_acc` words per particle (two sets of velocity-change totals xyz, the bound, the pairs it is in), and the
 // bound's initial value (+inf as f32 bits).
 const ACC: u32 = 8u;
@@ -522,10 +523,11 @@ fn pair_push(pr: Pair, totals: u32, j: f32, dir: vec3<f32>) {
 }
 
 // One Jacobi iteration of the normal impulses: the impulse that brings the predicted gap at the end of the step to
-// the thickness (a pair already inside it recovers RELAX of its overlap per step), never pulling. It reads the
-// totals of set `read` and adds to the other set, which lags by the previous iteration's changes: each pair adds
-// its previous change again (the same rounded integers) with its new one, so after the iteration the other set
-// holds every change so far, and no set is read while it is written (Jacobi, one dispatch per iteration).
+// the thickness (a pair already inside it recovers RELAX of its overlap per step, or per PUSH_TIME when the step is
+// shorter), never pulling. It reads the totals of set `read` and adds to the other set, which lags by the previous
+// iteration's changes: each pair adds its previous change again (the same rounded integers) with its new one, so
+// after the iteration the other set holds every change so far, and no set is read while it is written (Jacobi, one
+// dispatch per iteration).
 fn jacobi(k: u32, read: u32) {
     if (k >= pair_count()) { return; }
     let pr = c_pairs[k];
@@ -535,7 +537,7 @@ fn jacobi(k: u32, read: u32) {
     let d = pr.nd.w;
     let h = pr.hmj.x;
     let un = dot(pair_velocity(pr, read), n);
-    var goal = RELAX * (h - d) / clock.dt;
+    var goal = RELAX * (h - d) / max(clock.dt, PUSH_TIME);
     if (d >= h) { goal = (h - d) / clock.dt; }
     let j = max(pr.hmj.w + relaxation(pr.p) * (goal - un) / wsum, 0.0);
     let dj = j - pr.hmj.w;

@@ -308,3 +308,30 @@ fn implicit_euler_at_a_sixtieth_of_a_second_stays_stable_with_contact() {
     assert!(va.is_finite() && vz.is_finite() && va.length() < 3.0 && vz.length() < 3.0, "{va} {vz}");
     assert!(xz.x > xa.x + 0.3, "passed through or stuck: centres {xa} {xz}");
 }
+
+/// A pair inside its thickness is eased out at a rate, not within the step: stepped at 1e-8 s or 1e-9 s, two
+/// balloons overlapping their thickness by up to half of it leave the step at the same speeds, under
+/// `RELAX × h / PUSH_TIME`. Before the push was a rate it was `RELAX × overlap / dt`: ~25 km/s at 1e-8 s.
+#[test]
+fn a_tiny_step_eases_an_overlap_out_at_a_bounded_speed() {
+    let h = 0.01;
+    let speeds = [1e-8, 1e-9].map(|dt| {
+        let mut b = ModelBuilder::new();
+        b.gravity(DVec3::ZERO).unwrap();
+        let c = Contact { thickness: Some(h), ..Default::default() };
+        // The icospheres' vertices lie on spheres of 0.2 m: the surfaces are at least h/2 apart, within h.
+        balloon(&mut b, DVec3::new(-0.2 - h / 4.0, 0.0, 0.0), DVec3::ZERO, 0.3, c);
+        balloon(&mut b, DVec3::new(0.2 + h / 4.0, 0.0, 0.0), DVec3::ZERO, 0.3, c);
+        let m: Model<f64> = b.finalize().unwrap();
+        let mut s = m.state();
+        let mut solver = CpuSolver::<f64>::default();
+        solver.step(&m, &mut s, dt).unwrap();
+        assert!(solver.contact_stats().pushed > 0, "no pair pushed at dt {dt}");
+        assert!(m.momentum(&s).length() < 1e-9, "momentum {} at dt {dt}", m.momentum(&s));
+        s.particle_qd.iter().map(|v| v.length()).fold(0.0, f64::max)
+    });
+    let bound = contact::RELAX * h / contact::PUSH_TIME;
+    assert!(speeds[0] > 0.05 * bound, "no push: {speeds:?}");
+    assert!(speeds.iter().all(|&v| v <= bound), "speeds {speeds:?} m/s past {bound} m/s");
+    assert!((speeds[0] - speeds[1]).abs() <= 0.01 * speeds[0], "the speed depends on the step: {speeds:?}");
+}

@@ -116,6 +116,7 @@ fn constants_match_their_rust_twins() {
     let (_, src) = SHADERS.iter().find(|(n, _)| *n == "contact.wgsl").unwrap();
     assert_eq!(wgsl_const(src, "GAMMA"), fissure_core::contact::GAMMA);
     assert_eq!(wgsl_const(src, "RELAX"), fissure_core::contact::RELAX);
+    assert_eq!(wgsl_const(src, "PUSH_TIME"), fissure_core::contact::PUSH_TIME);
     let min_volume = wgsl_const(COMMON_WGSL, "MIN_VOLUME_FRACTION");
     assert_eq!(min_volume, fissure_core::forces::pressure::MIN_VOLUME_FRACTION);
 }

@@ -22,7 +22,8 @@
 //!    step.
 //! 2. **Repulsion with friction**: for each pair within reach, an impulse along the normal between the closest
 //!    points makes the predicted gap at the end of the step at least `h` (a pair already inside `h` is eased out
-//!    by [`RELAX`] of its overlap per step instead, so resting contact does not jitter), applied to the four
+//!    by [`RELAX`] of its overlap per step instead, so resting contact does not jitter; per [`PUSH_TIME`] when the
+//!    step is shorter, so that a tiny step does not turn the overlap into a large velocity), applied to the four
 //!    particles with their barycentric weights. Equal and opposite by construction: momentum is conserved. The
 //!    impulses are solved by projected Gauss–Seidel in the pairs' fixed order (deterministic at any thread count),
 //!    then Coulomb friction removes tangential relative velocity up to `μ` times the normal impulse. Inelastic:
@@ -81,8 +82,14 @@ use grid::HashGrid;
 
 /// The displacement bound's fraction of the distance to the nearest element that could be met (< 1/2).
 pub const GAMMA: f64 = 0.45;
-/// Fraction of a pair's overlap into its thickness recovered per step.
+/// Fraction of a pair's overlap into its thickness recovered per step (per [`PUSH_TIME`] when the step is shorter).
 pub const RELAX: f64 = 0.1;
+/// The shortest time, in seconds, over which [`RELAX`] of a pair's overlap is recovered. The push-out is a rate:
+/// its speed is at most `RELAX × overlap / PUSH_TIME`, whatever the step. Without it a step of `dt` pushed at
+/// `RELAX × overlap / dt`: a step of 1e-8 s (a caller's `World::step`, or an advance's remainder before
+/// `World::advance` kept its steps ≥ dt/2) turned a millimetre of overlap into 10 km/s, which the displacement bound
+/// kept from crossing but which stayed in the velocities. At the scenes' steps (≥ 1.4e-4 s) nothing changes.
+pub const PUSH_TIME: f64 = 1e-4;
 /// Default thickness as a fraction of the body's mean edge length.
 pub const THICKNESS_PER_EDGE: f64 = 0.2;
 

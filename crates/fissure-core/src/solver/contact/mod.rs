@@ -8,7 +8,7 @@ mod moves;
 use super::*;
 use crate::contact::geometry::{Box32, closest_on_segments, closest_on_triangle, plane_apart, segments_apart};
 use crate::contact::grid::HashGrid;
-use crate::contact::{Elements, GAMMA, RELAX, same_origin};
+use crate::contact::{Elements, GAMMA, PUSH_TIME, RELAX, same_origin};
 use glam::DVec3;
 use moves::{CLOSING_BODIES, still_valid};
 #[cfg(feature = "parallel")]
@@ -413,6 +413,9 @@ impl<R: Real> CpuSolver<R> {
         let qd = &s.particle_qd;
         let vel = |dv: &[DVec3], i: u32| qd[i as usize].to_dvec3() + dv[i as usize];
         let mut pushed = 0;
+        // A pair inside its thickness is eased out at RELAX of its overlap per step, or per PUSH_TIME when the step
+        // is shorter (the push-out's speed does not grow as the step shrinks).
+        let ease = dt.max(PUSH_TIME);
         // The first sweep visits every pair; later sweeps only those that took an impulse or came within HOT
         // thicknesses of needing one (the others are far from binding; the displacement bound covers them anyway).
         hot.clear();
@@ -427,7 +430,7 @@ impl<R: Real> CpuSolver<R> {
                     continue;
                 }
                 let un: f64 = (0..4).map(|k| p.w[k] * vel(dv, p.p[k]).dot(p.n)).sum();
-                let target = if p.d >= p.h { (p.h - p.d) / dt } else { RELAX * (p.h - p.d) / dt };
+                let target = if p.d >= p.h { (p.h - p.d) / dt } else { RELAX * (p.h - p.d) / ease };
                 let j = (p.j + (target - un) / wsum).max(0.0);
                 let dj = j - p.j;
                 if sweep > 0 || j > 0.0 || (un - target) * dt < HOT * p.h {
@@ -443,9 +446,9 @@ impl<R: Real> CpuSolver<R> {
                 }
             }
             hot.truncate(keep);
-            // Converged to 1e-4 of the velocity that closes a thickness in a step (momentum is exact anyway:
-            // every impulse is equal and opposite).
-            if change <= 1e-4 * (h_max / dt) {
+            // Converged to 1e-4 of the velocity that closes a thickness in a step, or in PUSH_TIME (momentum is
+            // exact anyway: every impulse is equal and opposite).
+            if change <= 1e-4 * (h_max / ease) {
                 break;
             }
         }
