@@ -120,7 +120,8 @@ impl<R: Real> World<R> {
     /// Advances by `duration` \[s\] in steps of `dt` \[s\], the last ones shortened to land exactly: never to less
     /// than half of `dt` when `duration` is at least that (a remainder under half a step is shared by the last two
     /// steps: a step of nanoseconds at the end of a frame made the contact pass's push, meant for a whole step,
-    /// set pieces flying).
+    /// set pieces flying; that push is a rate now, `fissure_core::contact::PUSH_TIME`, and a step of nanoseconds
+    /// would still be a whole step's work for nothing).
     pub fn advance(&mut self, duration: f64, dt: f64) -> Result<Advance, StepError> {
         now(self.advance_async(duration, dt))
     }
