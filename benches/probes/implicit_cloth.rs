@@ -1,0 +1,35 @@
+//! Issue 15's large-step row alone: the 32² benchmark cloth (1 cm, 1 g, k 1e3 N/m, two corners pinned) stepped by
+//! implicit Euler at 1/60 s, the 120 steps of `cargo bench --bench cloth` repeated in rounds (this host's speed
+//! drifts from minute to minute: compare builds round against round); prints each round's time per step, its
+//! stages and CG iterations per step, and the best round.
+//!
+//! Run: `cp benches/probes/implicit_cloth.rs examples/ && cargo run --release --example implicit_cloth -- 9`
+//! (rounds; remove the copy afterwards).
+use fissure::*;
+use std::time::Instant;
+
+fn main() {
+    let rounds: usize = std::env::args().nth(1).and_then(|a| a.parse().ok()).unwrap_or(9);
+    let model: Model<f32> = fissure::scenes::benchmark_cloth(32).unwrap().finalize().unwrap();
+    let mut best = f64::INFINITY;
+    for round in 0..rounds {
+        let mut state = model.state();
+        let mut solver = CpuSolver::<f32>::with_integrator(Integrator::ImplicitEuler);
+        let h = 1.0 / 60.0;
+        let (mut iterations, steps) = (0, 120);
+        let t0 = Instant::now();
+        for _ in 0..steps {
+            solver.step(&model, &mut state, h).unwrap();
+            iterations += solver.cg.iterations;
+        }
+        let per = t0.elapsed().as_secs_f64() / steps as f64;
+        best = best.min(per);
+        println!(
+            "round {round}: {:.3} ms/step, {:.1} CG iterations per step\n{}",
+            per * 1e3,
+            iterations as f64 / steps as f64,
+            solver.timers()
+        );
+    }
+    println!("best {:.3} ms/step", best * 1e3);
+}
