@@ -227,6 +227,7 @@ pub(crate) fn config(
         cg_max_iterations,
         check_finite: true,
         substep_safety,
+        ..SolverConfig::default()
     };
     c.validate().map_err(value_err)?;
     Ok(c)

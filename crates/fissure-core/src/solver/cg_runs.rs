@@ -17,6 +17,7 @@
 //! particle's sum is added in the order of the runs, then of the spans' two ends; the dot products sum `x`, then
 //! `y`, then `z` of each particle: bits of their own, the same on any machine and thread count.
 
+use super::coarse::Coarse;
 use super::implicit::ImplicitScratch;
 use super::*;
 
@@ -271,7 +272,7 @@ fn solve<R: Real>(
         let (row, col) = [(0, 0), (0, 1), (0, 2), (1, 1), (1, 2), (2, 2)][e];
         v.extend(im.block.iter().map(|b| b[row].to_array()[col]));
     }
-    precondition(&mut cg);
+    precondition(&mut cg, &mut im.coarse);
     cg.p.c.clone_from(&cg.z.c);
     let (mut rz, mut rr) = (dot(&cg.r, &cg.z), dot(&cg.r, &cg.r));
     let mut it = 0;
@@ -295,7 +296,7 @@ fn solve<R: Real>(
                 *r -= *a * alpha;
             }
         }
-        precondition(&mut cg);
+        precondition(&mut cg, &mut im.coarse);
         let rz_new = dot(&cg.r, &cg.z);
         rr = dot(&cg.r, &cg.r);
         let beta = rz_new / rz;
@@ -350,9 +351,10 @@ fn apply<R: Real>(m: &Model<R>, cg: &mut RunsCg<R>, im: &ImplicitScratch<R>, pre
     dot(&cg.p, &cg.ap)
 }
 
-/// `cg.z = B cg.r`, each row `b · r` summed x, y, z (the bits of `implicit::precondition`).
+/// `cg.z = B cg.r`, each row `b · r` summed x, y, z (the bits of `implicit::precondition`), plus the coarse
+/// level's correction where it is active (`coarse.rs`).
 #[inline(always)]
-fn precondition<R: Real>(cg: &mut RunsCg<R>) {
+fn precondition<R: Real>(cg: &mut RunsCg<R>, coarse: &mut Coarse) {
     let n = cg.r.c[0].len();
     let [b00, b01, b02, b11, b12, b22] = &cg.block;
     let (b00, b01, b02, b11, b12, b22) = (&b00[..n], &b01[..n], &b02[..n], &b11[..n], &b12[..n], &b22[..n]);
@@ -365,6 +367,9 @@ fn precondition<R: Real>(cg: &mut RunsCg<R>) {
         zx[i] = b00[i] * x + b01[i] * y + b02[i] * z;
         zy[i] = b01[i] * x + b11[i] * y + b12[i] * z;
         zz[i] = b02[i] * x + b12[i] * y + b22[i] * z;
+    }
+    if coarse.active() {
+        coarse.apply_soa(&cg.r.c, &mut cg.z.c);
     }
 }
 

@@ -35,6 +35,8 @@ pub(super) struct ImplicitScratch<R: Real> {
     /// there continues it, and its CG starts from that step's `Δv` (left in `dv`) scaled by the step ratio.
     /// `None` (a new or resized solver): CG starts from zero.
     pub(super) warm: Option<(f64, R)>,
+    /// The preconditioner's coarse level (`coarse.rs`).
+    pub(super) coarse: super::coarse::Coarse,
 }
 
 impl<R: Real> CpuSolver<R> {
@@ -171,6 +173,13 @@ impl<R: Real> CpuSolver<R> {
                 }
             });
         }
+        // The preconditioner's second level: the system on aggregates of particles moving together.
+        if self.config.cg_coarse {
+            let body_c: &[R] = if pressure { &im.body_c } else { &[] };
+            im.coarse.build(m, &im.u, &im.coef, &im.g, body_c);
+        } else {
+            im.coarse.off();
+        }
         self.timers.add(Stage::Integrate, t);
         let t = Instant::now();
         // The last step's Δv is the guess when this step continues it (the motion of one step predicts the next:
@@ -259,6 +268,11 @@ impl<R: Real> CpuSolver<R> {
                 [rz, rr]
             })
         };
+        if im.coarse.active() {
+            im.coarse.apply::<R>(&im.r, &mut im.z);
+            im.p.copy_from_slice(&im.z);
+            rz += R::from_f64(im.coarse.yx());
+        }
         let mut it = 0;
         while it < self.config.cg_max_iterations && rr > tol2 {
             let pap = self.apply_a(m, im, pressure);
@@ -271,7 +285,7 @@ impl<R: Real> CpuSolver<R> {
                 return Err(StepError::NoConvergence { iterations: it, residual });
             }
             let alpha = rz / pap;
-            let [rz_new, rr_new] = {
+            let [mut rz_new, rr_new] = {
                 let (p, ap, block) = (&im.p, &im.ap, &im.block);
                 par::chunks3_sums(&mut im.dv, &mut im.r, &mut im.z, &mut im.sums, |start, xs, rs, zs| {
                     let (mut rz, mut rr) = (R::ZERO, R::ZERO);
@@ -285,6 +299,10 @@ impl<R: Real> CpuSolver<R> {
                     [rz, rr]
                 })
             };
+            if im.coarse.active() {
+                im.coarse.apply::<R>(&im.r, &mut im.z);
+                rz_new += R::from_f64(im.coarse.yx());
+            }
             rr = rr_new;
             let beta = rz_new / rz;
             rz = rz_new;

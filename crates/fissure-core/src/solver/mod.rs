@@ -33,6 +33,7 @@ use crate::topology::NONE;
 use std::sync::atomic::{AtomicBool, Ordering};
 
 mod cg_runs;
+mod coarse;
 mod collide;
 mod contact;
 mod explicit;
@@ -49,6 +50,7 @@ use implicit::ImplicitScratch;
 /// Solver settings.
 #[derive(Clone, Debug, PartialEq)]
 #[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
+#[cfg_attr(feature = "serde", serde(default))]
 pub struct SolverConfig {
     /// The integrator. Default symplectic Euler.
     pub integrator: Integrator,
@@ -56,6 +58,11 @@ pub struct SolverConfig {
     pub cg_tolerance: f64,
     /// CG iteration cap (implicit only); the last iterate is used if reached. Default 200.
     pub cg_max_iterations: usize,
+    /// A second level in CG's preconditioner (implicit only): besides each particle's 3×3 block, the system on
+    /// up to 24 aggregates of particles moving together, solved exactly at every iteration (see
+    /// `solver/coarse.rs`). The same stopping rule and so the same accuracy, in about half the iterations at large
+    /// steps (the 32² benchmark cloth at 1/60 s: 107 → 57). Default true; false gives block-Jacobi alone.
+    pub cg_coarse: bool,
     /// Check every step for NaN/inf and return [`StepError::NonFinite`]. Default true (cost: a compare per
     /// particle inside the update pass).
     pub check_finite: bool,
@@ -74,6 +81,7 @@ impl Default for SolverConfig {
             integrator: Integrator::SymplecticEuler,
             cg_tolerance: 1e-5,
             cg_max_iterations: 200,
+            cg_coarse: true,
             check_finite: true,
             substep_safety: None,
         }

@@ -1,0 +1,470 @@
+//! Implicit Euler's coarse correction: the second level of its CG preconditioner.
+//!
+//! Block-Jacobi (each particle's 3×3 diagonal block inverted) sees one particle at a time, so it leaves the slow
+//! modes of a large step's system `M + h C + h² K` alone: a patch of cloth moving as a whole against its
+//! neighbours is stiff at its border but not inside, and CG needs ~√κ iterations to spread a correction across
+//! the body (107 a step on the 32² benchmark cloth at 1/60 s, where `h² k / m` ≈ 280). The coarse level solves the
+//! system restricted to patches moving rigidly in translation (unsmoothed aggregation, as in algebraic multigrid;
+//! Tamstorf, Jones & McCormick 2015 used smoothed aggregation for cloth): particles are gathered into
+//! aggregates along their springs, the aggregates' `3 n_c × 3 n_c` operator `Pᵀ A P` is formed and factored
+//! at every step (dense Cholesky: `n_c` is about [`MAX_AGGREGATES`]), and each application of the preconditioner adds
+//! `P (Pᵀ A P)⁻¹ Pᵀ r` to block-Jacobi's `B r` (additive two-level Schwarz: symmetric positive definite, so CG
+//! stays CG, and the stopping rule `|r| ≤ tol |b|` is unchanged, so the solution's accuracy is).
+//!
+//! `Pᵀ A P` is cheap to form: a spring inside an aggregate moves both its ends alike under `P` and adds nothing;
+//! a spring across two adds its block `B_s` to both diagonal blocks and `-B_s` to the two off-diagonal ones; a
+//! spring to a pinned particle adds `B_s` to its free end's; the masses add to the diagonal; the gas's rank-one
+//! term `c g gᵀ` adds `c G Gᵀ` with `G` the aggregates' sums of `g`. Everything is in `f64` and in a fixed order
+//! (the particles', then the springs'): the same bits at any thread count.
+//!
+//! What it costs and saves, measured (`benches/probes/implicit_cloth.rs`, `benches/RESULTS.md` issue 15 (50)): on
+//! the 32² benchmark cloth at 1/60 s, 107.3 → 56.7 CG iterations a step; the aggregation once (~2 µs), forming
+//! `Pᵀ A P` ~10 µs and its factor and `L⁻¹` ~45 µs a step, an application ~4.6 µs against ~10 µs for an
+//! iteration's block-Jacobi CG. A factor kept over four steps cost more iterations than it saved set-up (56.7 →
+//! 72.9). 16, 24 and 32 aggregates were measured alternated in one process: 24 was the fastest.
+
+use crate::model::Model;
+use crate::real::{Real, Vector3};
+
+/// The aggregates a connected model is cut into (the factor's cost per step grows as their cube, an application's
+/// as their square). Each piece a body is broken into makes at least one of its own; past
+/// [`MAX_AGGREGATES`] × 2 the level is left off (pieces are then many and small, block-Jacobi's good case).
+pub(super) const MAX_AGGREGATES: usize = 24;
+/// Particles per aggregate below which a coarse level is not worth its passes: a model of fewer than
+/// `2 × MIN_SIZE` free particles is solved with block-Jacobi alone.
+pub(super) const MIN_SIZE: usize = 16;
+
+/// The coarse level: each particle's aggregate, the factor of `Pᵀ A P`, and scratch for an application.
+#[derive(Clone, Debug, Default)]
+pub(super) struct Coarse {
+    /// Aggregate of each particle (a pinned particle, in none: one past the last aggregate).
+    agg: Vec<u32>,
+    /// Aggregates the shape has (0: the model is too small for a coarse level).
+    aggregates: usize,
+    /// Aggregates of the factor in use (0: no coarse level this step).
+    n: usize,
+    /// Each aggregate's mass.
+    mass: Vec<f64>,
+    /// `Pᵀ A P`, then its lower Cholesky factor `L` (row-major, `3n × 3n`), and `X = L⁻¹` (lower, row-major: an
+    /// application is then two products, `Xᵀ (X y)`; the two triangular solves' chains of dependent operations
+    /// cost ~4× as much at the benchmark cloth's 72 unknowns, forming `(Pᵀ A P)⁻¹ = Xᵀ X` another `(3n)³ / 6`
+    /// products a step).
+    l: Vec<f64>,
+    xinv: Vec<f64>,
+    /// Restricted residual, `X y`, the coarse solution (each `3n + 3`: the last three, the pinned particles'
+    /// slot), and a column of scratch for the factor.
+    y: Vec<f64>,
+    y4: Vec<f64>,
+    w: Vec<f64>,
+    x: Vec<f64>,
+    col: Vec<f64>,
+    /// The springs whose ends lie in different aggregates or on a pinned particle (the others add nothing),
+    /// grouped by their pair of aggregates: pair `q` is `(a, b)` = `pairs[q].0, pairs[q].1` (`b` may be
+    /// the pinned slot, past the aggregates) and its springs are `cross[pairs[q - 1].2..pairs[q].2]`.
+    cross: Vec<u32>,
+    pairs: Vec<(u32, u32, u32)>,
+    /// What the aggregation was made for: particles, springs, free particles, a sum over the pinned ones.
+    key: (usize, usize, usize, u64),
+}
+
+const NONE: u32 = u32::MAX;
+
+impl Coarse {
+    /// Turns the level off (block-Jacobi alone).
+    pub fn off(&mut self) {
+        self.n = 0;
+    }
+
+    /// Whether the coarse level is in use.
+    pub fn active(&self) -> bool {
+        self.n > 0
+    }
+
+    /// Forms and factors `Pᵀ A P` for this step, with the springs' system blocks `iso I + (axial - iso) u uᵀ`
+    /// (`coef[s][2]`, `coef[s][3]`) and the gas's term `c_b g gᵀ` (`body_c` empty: none); the aggregation is made
+    /// again only when the model's shape changed ([`Coarse::aggregate`]). Leaves the level off when the model is
+    /// too small, or when the factor fails (it cannot for positive masses, but a broken state is CG's to report,
+    /// not this level's).
+    pub fn build<R: Real>(&mut self, m: &Model<R>, u: &[R::V], coef: &[[R; 4]], g: &[R::V], body_c: &[R]) {
+        self.aggregate(m);
+        self.n = 0;
+        let n = self.aggregates;
+        if n == 0 {
+            return;
+        }
+        let dim = 3 * n;
+        self.l.clear();
+        self.l.resize(dim * dim, 0.0);
+        let a = &mut self.l;
+        for (k, &mk) in self.mass.iter().enumerate() {
+            (0..3).for_each(|r| a[(3 * k + r) * dim + 3 * k + r] = mk);
+        }
+        // Each pair's springs' blocks summed (the six entries of a symmetric 3×3), then added to the pair's four
+        // blocks of `Pᵀ A P`: a spring across two aggregates moves them apart, one to a pinned particle its own.
+        let mut start = 0;
+        for &(pa, pb, end) in &self.pairs {
+            let mut s = [0.0f64; 6];
+            for &sp in &self.cross[start..end as usize] {
+                let sp = sp as usize;
+                let (iso, axial) = (coef[sp][2].to_f64(), coef[sp][3].to_f64());
+                let d = u[sp].to_dvec3();
+                let c = axial - iso;
+                let (cx, cy, cz) = (c * d.x, c * d.y, c * d.z);
+                s[0] += cx * d.x + iso;
+                s[1] += cx * d.y;
+                s[2] += cx * d.z;
+                s[3] += cy * d.y + iso;
+                s[4] += cy * d.z;
+                s[5] += cz * d.z + iso;
+            }
+            start = end as usize;
+            let blk = [[s[0], s[1], s[2]], [s[1], s[3], s[4]], [s[2], s[4], s[5]]];
+            let mut add = |p: usize, q: usize, sign: f64| {
+                for (r, row) in blk.iter().enumerate() {
+                    let at = (3 * p + r) * dim + 3 * q;
+                    for (v, &b) in a[at..at + 3].iter_mut().zip(row) {
+                        *v += sign * b;
+                    }
+                }
+            };
+            let pa = pa as usize;
+            add(pa, pa, 1.0);
+            if (pb as usize) < n {
+                let pb = pb as usize;
+                add(pb, pb, 1.0);
+                add(pa, pb, -1.0);
+                add(pb, pa, -1.0);
+            }
+        }
+        for (b, &c) in body_c.iter().enumerate() {
+            let c = c.to_f64();
+            if c <= 0.0 {
+                continue;
+            }
+            let sums = &mut self.w;
+            sums.clear();
+            sums.resize(dim, 0.0);
+            for (i, &k) in self.agg.iter().enumerate() {
+                if (k as usize) < n && m.particle_body[i] as usize == b {
+                    let gi = g[i].to_dvec3();
+                    let k = 3 * k as usize;
+                    sums[k] += gi.x;
+                    sums[k + 1] += gi.y;
+                    sums[k + 2] += gi.z;
+                }
+            }
+            for r in 0..dim {
+                let cr = c * sums[r];
+                for (v, &sq) in a[r * dim..(r + 1) * dim].iter_mut().zip(sums.iter()) {
+                    *v += cr * sq;
+                }
+            }
+        }
+        self.xinv.resize(dim * dim, 0.0);
+        self.col.resize(dim, 0.0);
+        for v in [&mut self.y, &mut self.w, &mut self.x] {
+            v.resize(dim + 3, 0.0);
+        }
+        if factor(&mut self.l, dim, &mut self.col, &mut self.xinv) {
+            self.n = n;
+        }
+    }
+
+    /// Gathers `m`'s free particles into aggregates along its springs (breadth first from the lowest unassigned
+    /// particle, up to the size that makes at most [`MAX_AGGREGATES`]), with each aggregate's mass and the springs
+    /// that cross between aggregates; kept while the model's counts and pins are the same.
+    fn aggregate<R: Real>(&mut self, m: &Model<R>) {
+        let np = m.particle_count();
+        let w = &m.particle_inv_mass;
+        // The pinned particles by count and a sum of their indices' squares: an aggregate must hold no pinned
+        // particle (the level would move it), and a pin moved to another particle changes the sum.
+        let (mut pinned, mut sum) = (0usize, 0u64);
+        for (i, wi) in w.iter().enumerate() {
+            if *wi == R::ZERO {
+                pinned += 1;
+                sum = sum.wrapping_add((i as u64 + 1).wrapping_mul(i as u64 + 1));
+            }
+        }
+        let free = np - pinned;
+        let key = (np, m.spring_count(), free, sum);
+        if key == self.key && self.agg.len() == np {
+            return;
+        }
+        self.key = key;
+        self.aggregates = 0;
+        self.agg.clear();
+        self.agg.resize(np, NONE);
+        if free < 2 * MIN_SIZE {
+            return;
+        }
+        let size = free.div_ceil(MAX_AGGREGATES).max(MIN_SIZE);
+        let mut members = Vec::with_capacity(free);
+        let mut n = 0u32;
+        for seed in 0..np {
+            if w[seed] == R::ZERO || self.agg[seed] != NONE {
+                continue;
+            }
+            let mut head = members.len();
+            members.push(seed as u32);
+            self.agg[seed] = n;
+            let mut count = 1;
+            'grow: while head < members.len() {
+                let i = members[head] as usize;
+                head += 1;
+                for &e in m.particle_springs.row(i) {
+                    let [a, b] = m.spring_indices[(e >> 1) as usize];
+                    let j = if a as usize == i { b } else { a } as usize;
+                    if w[j] != R::ZERO && self.agg[j] == NONE {
+                        self.agg[j] = n;
+                        members.push(j as u32);
+                        count += 1;
+                        if count == size {
+                            break 'grow;
+                        }
+                    }
+                }
+            }
+            n += 1;
+        }
+        if n as usize > 2 * MAX_AGGREGATES {
+            return;
+        }
+        // The pinned particles' slot: one past the aggregates (a residual summed there is never read).
+        self.agg.iter_mut().filter(|k| **k == NONE).for_each(|k| *k = n);
+        self.mass.clear();
+        self.mass.resize(n as usize, 0.0);
+        for (i, &k) in self.agg.iter().enumerate() {
+            if k < n {
+                self.mass[k as usize] += m.particle_mass[i].to_f64();
+            }
+        }
+        // The crossing springs by pair of aggregates (the lower first; a pinned end, slot `n`, sorts last), each
+        // pair's in spring order: a fixed order of sums.
+        let agg = &self.agg;
+        let pair = |s: u32| {
+            let [i, j] = m.spring_indices[s as usize];
+            let (a, b) = (agg[i as usize], agg[j as usize]);
+            (a.min(b), a.max(b))
+        };
+        self.cross.clear();
+        self.cross.extend((0..m.spring_count() as u32).filter(|&s| {
+            let (a, b) = pair(s);
+            a != b
+        }));
+        self.cross.sort_by_key(|&s| pair(s));
+        self.pairs.clear();
+        for (at, &s) in self.cross.iter().enumerate() {
+            let (a, b) = pair(s);
+            match self.pairs.last_mut() {
+                Some(last) if (last.0, last.1) == (a, b) => last.2 = at as u32 + 1,
+                _ => self.pairs.push((a, b, at as u32 + 1)),
+            }
+        }
+        self.aggregates = n as usize;
+    }
+
+    /// `z += P (Pᵀ A P)⁻¹ Pᵀ r` on vectors stored per component (`cg_runs.rs`): the residual summed per aggregate
+    /// in particle order (a pinned particle's into a slot the solve ignores), the coarse solve, and each particle's
+    /// aggregate's correction added. Inlined into the runs' CG, so compiled for its instruction set.
+    #[inline(always)]
+    pub fn apply_soa<R: Real>(&mut self, r: &[Vec<R>; 3], z: &mut [Vec<R>; 3]) {
+        let np = self.agg.len();
+        let agg = &self.agg[..];
+        let (rx, ry, rz) = (&r[0][..np], &r[1][..np], &r[2][..np]);
+        // Four partial sums, particle `i`'s in set `i % 4` (a chain of additions into one aggregate's entry,
+        // through memory, would cost a store-to-load forwarding per particle), added in a fixed order after.
+        let stride = self.y.len();
+        self.y4.resize(4 * stride, 0.0);
+        self.y4.iter_mut().for_each(|v| *v = 0.0);
+        let y4 = &mut self.y4[..];
+        for i in 0..np {
+            let k = (i & 3) * stride + 3 * agg[i] as usize;
+            let yk = &mut y4[k..k + 3];
+            yk[0] += rx[i].to_f64();
+            yk[1] += ry[i].to_f64();
+            yk[2] += rz[i].to_f64();
+        }
+        for (j, v) in self.y.iter_mut().enumerate() {
+            *v = (y4[j] + y4[stride + j]) + (y4[2 * stride + j] + y4[3 * stride + j]);
+        }
+        self.solve();
+        let (agg, x) = (&self.agg[..], &self.x[..]);
+        let [zx, zy, zz] = z;
+        let (zx, zy, zz) = (&mut zx[..np], &mut zy[..np], &mut zz[..np]);
+        for i in 0..np {
+            let k = 3 * agg[i] as usize;
+            let xk = &x[k..k + 3];
+            zx[i] += R::from_f64(xk[0]);
+            zy[i] += R::from_f64(xk[1]);
+            zz[i] += R::from_f64(xk[2]);
+        }
+    }
+
+    /// `z += P (Pᵀ A P)⁻¹ Pᵀ r` on vectors of 3-vectors (`implicit.rs`), as [`Coarse::apply_soa`].
+    pub fn apply<R: Real>(&mut self, r: &[R::V], z: &mut [R::V]) {
+        let np = self.agg.len();
+        self.y.iter_mut().for_each(|v| *v = 0.0);
+        for (&k, ri) in self.agg.iter().zip(&r[..np]) {
+            let k = 3 * k as usize;
+            let (yk, ri) = (&mut self.y[k..k + 3], ri.to_dvec3());
+            yk[0] += ri.x;
+            yk[1] += ri.y;
+            yk[2] += ri.z;
+        }
+        self.solve();
+        for (&k, zi) in self.agg.iter().zip(&mut z[..np]) {
+            let k = 3 * k as usize;
+            *zi += R::V::from_dvec3(glam::DVec3::from_slice(&self.x[k..k + 3]));
+        }
+    }
+
+    /// `yᵀ x` of the last application: what its correction adds to `rᵀ z` (`rᵀ P x = (Pᵀ r)ᵀ x`), so that CG need
+    /// not take the dot product again.
+    pub fn yx(&self) -> f64 {
+        let dim = 3 * self.n;
+        self.y[..dim].iter().zip(&self.x[..dim]).map(|(a, b)| a * b).sum()
+    }
+
+    /// `x = (Pᵀ A P)⁻¹ y = Xᵀ (X y)` with `X = L⁻¹` (lower triangular): `X y` row by row in four partial sums,
+    /// then `Xᵀ` of it as a sum of `X`'s rows scaled (no chain of dependent operations; a fixed order: fixed
+    /// bits). The slot of the pinned particles (the last three entries) gets zero.
+    #[inline(always)]
+    fn solve(&mut self) {
+        let dim = 3 * self.n;
+        let (xinv, y, w, x) = (&self.xinv[..dim * dim], &self.y[..dim], &mut self.w[..dim], &mut self.x[..]);
+        for r in 0..dim {
+            let (row, y) = (&xinv[r * dim..r * dim + r + 1], &y[..r + 1]);
+            let mut acc = [0.0; 4];
+            let whole = row.len() / 4 * 4;
+            for (a, b) in row[..whole].chunks_exact(4).zip(y[..whole].chunks_exact(4)) {
+                acc[0] += a[0] * b[0];
+                acc[1] += a[1] * b[1];
+                acc[2] += a[2] * b[2];
+                acc[3] += a[3] * b[3];
+            }
+            for (l, (a, b)) in row[whole..].iter().zip(&y[whole..]).enumerate() {
+                acc[l] += a * b;
+            }
+            w[r] = (acc[0] + acc[1]) + (acc[2] + acc[3]);
+        }
+        for v in x.iter_mut() {
+            *v = 0.0;
+        }
+        for r in 0..dim {
+            let s = w[r];
+            for (v, &a) in x[..r + 1].iter_mut().zip(&xinv[r * dim..r * dim + r + 1]) {
+                *v += s * a;
+            }
+        }
+    }
+}
+
+crate::isa::wide_kernel! {
+    /// Factors the symmetric positive definite `dim × dim` matrix `a` (row-major, lower triangle read) as `L Lᵀ`
+    /// in place and writes `X = L⁻¹` into `x` (lower, row-major); `col` is scratch of `dim`. False if `a` is not
+    /// positive definite. Compiled for AVX-512 or AVX2 when the CPU has them (the same bits: see `crate::isa`).
+    fn factor[](a: &mut [f64], dim: usize, col: &mut [f64], x: &mut [f64]) -> bool => factor_kernel[]
+}
+
+/// [`factor`]'s body: Cholesky right-looking, with column `j` copied into `col` so that each row's update is a
+/// contiguous `a -= s b`; then `L⁻¹` by forward elimination on the identity, row operations again. Every inner loop
+/// is a contiguous `a -= s b` (no chain of dependent additions), so it vectorises.
+#[inline(always)]
+fn factor_kernel(a: &mut [f64], dim: usize, col: &mut [f64], x: &mut [f64]) -> bool {
+    let (a, col, x) = (&mut a[..dim * dim], &mut col[..dim], &mut x[..dim * dim]);
+    for j in 0..dim {
+        let d = a[j * dim + j];
+        if !(d > 0.0 && d.is_finite()) {
+            return false;
+        }
+        let d = d.sqrt();
+        a[j * dim + j] = d;
+        for i in j + 1..dim {
+            a[i * dim + j] /= d;
+            col[i] = a[i * dim + j];
+        }
+        for i in j + 1..dim {
+            let s = col[i];
+            for (v, &b) in a[i * dim + j + 1..i * dim + i + 1].iter_mut().zip(&col[j + 1..i + 1]) {
+                *v -= s * b;
+            }
+        }
+    }
+    for v in x.iter_mut() {
+        *v = 0.0;
+    }
+    for k in 0..dim {
+        x[k * dim + k] = 1.0;
+    }
+    for q in 0..dim {
+        let d = a[q * dim + q];
+        for v in &mut x[q * dim..q * dim + q + 1] {
+            *v /= d;
+        }
+        let (done, rest) = x.split_at_mut((q + 1) * dim);
+        let xq = &done[q * dim..q * dim + q + 1];
+        for r in q + 1..dim {
+            let s = a[r * dim + q];
+            for (v, &b) in rest[(r - q - 1) * dim..(r - q - 1) * dim + q + 1].iter_mut().zip(xq) {
+                *v -= s * b;
+            }
+        }
+    }
+    true
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A 9 × 9 symmetric positive definite matrix (`B Bᵀ + I` for a fixed `B`).
+    fn spd() -> Vec<f64> {
+        let b = |r: usize, c: usize| ((r * 7 + c * 3) % 5) as f64 - 2.0;
+        let mut a = vec![0.0; 81];
+        for r in 0..9 {
+            for c in 0..9 {
+                a[r * 9 + c] = (0..9).map(|k| b(r, k) * b(c, k)).sum::<f64>() + if r == c { 1.0 } else { 0.0 };
+            }
+        }
+        a
+    }
+
+    #[test]
+    fn factor_and_solve_invert_a_small_spd_system() {
+        let a = spd();
+        let mut c = Coarse { n: 3, l: a.clone(), xinv: vec![0.0; 81], col: vec![0.0; 9], ..Coarse::default() };
+        assert!(factor(&mut c.l, 9, &mut c.col, &mut c.xinv));
+        // L Lᵀ = A.
+        let l = |r: usize, k: usize| if k <= r { c.l[r * 9 + k] } else { 0.0 };
+        for r in 0..9 {
+            for q in 0..9 {
+                let v: f64 = (0..9).map(|k| l(r, k) * l(q, k)).sum();
+                assert!((v - a[r * 9 + q]).abs() < 1e-9, "L Lᵀ[{r}][{q}] = {v}, want {}", a[r * 9 + q]);
+            }
+        }
+        // x = A⁻¹ y for y = e_j and a dense y; the pinned slot's entries are ignored and come back zero.
+        for j in 0..10 {
+            c.y = (0..12)
+                .map(|i| {
+                    if j == 9 {
+                        i as f64 - 4.5
+                    } else if i == j {
+                        1.0
+                    } else {
+                        0.0
+                    }
+                })
+                .collect();
+            c.y[9..].iter_mut().for_each(|v| *v = 7.0);
+            (c.w, c.x) = (vec![0.0; 12], vec![0.0; 12]);
+            c.solve();
+            for r in 0..9 {
+                let v: f64 = (0..9).map(|k| a[r * 9 + k] * c.x[k]).sum();
+                assert!((v - c.y[r]).abs() < 1e-9, "(A x)[{r}] = {v}, want {} (case {j})", c.y[r]);
+            }
+            assert_eq!(&c.x[9..], &[0.0; 3]);
+        }
+        let mut b = vec![1.0, 0.0, 0.0, 0.0, -1.0, 0.0, 0.0, 0.0, 2.0];
+        assert!(!factor(&mut b, 3, &mut [0.0; 3], &mut [0.0; 9]), "an indefinite matrix is refused");
+    }
+}
