@@ -17,11 +17,14 @@
 //! term `c g gᵀ` adds `c G Gᵀ` with `G` the aggregates' sums of `g`. Everything is in `f64` and in a fixed order
 //! (the particles', then the springs'): the same bits at any thread count.
 //!
-//! What it costs and saves, measured (`benches/probes/implicit_cloth.rs`, `benches/RESULTS.md` issue 15 (50)): on
-//! the 32² benchmark cloth at 1/60 s, 107.3 → 56.7 CG iterations a step; the aggregation once (~2 µs), forming
-//! `Pᵀ A P` ~10 µs and its factor and `L⁻¹` ~45 µs a step, an application ~4.6 µs against ~10 µs for an
-//! iteration's block-Jacobi CG. A factor kept over four steps cost more iterations than it saved set-up (56.7 →
-//! 72.9). 16, 24 and 32 aggregates were measured alternated in one process: 24 was the fastest.
+//! What it costs and saves, measured (`benches/probes/implicit_cloth.rs`, `benches/RESULTS.md` issue 15 (50), a
+//! 2-vCPU Zen 3 host whose speed drifts ~2× from minute to minute): on the 32² benchmark cloth at 1/60 s, 107.3
+//! → 56.8 CG iterations a step; the aggregation once (~2 µs), forming `Pᵀ A P`, its factor and inverse 60–120 µs a
+//! step (the drift), an application ~3–3.5 µs (a third each: the restriction, the 72 × 72 product, the
+//! prolongation) against ~8–13 µs for an iteration of block-Jacobi CG. A factor kept over four steps cost more
+//! iterations than it saved set-up (56.7 → 72.9). 16, 24 and 32 aggregates were measured alternated in one
+//! process: 24 was the fastest. Aggregates of consecutive particles instead of grown along the springs (strips, on
+//! a grid numbered by rows) saved almost nothing (102.6 iterations).
 
 use crate::model::Model;
 use crate::real::{Real, Vector3};
@@ -30,6 +33,8 @@ use crate::real::{Real, Vector3};
 /// as their square). Each piece a body is broken into makes at least one of its own; past
 /// [`MAX_AGGREGATES`] × 2 the level is left off (pieces are then many and small, block-Jacobi's good case).
 pub(super) const MAX_AGGREGATES: usize = 24;
+// The prolongation's table holds every slot: the aggregates and the pinned particles' one.
+const _: () = assert!(2 * MAX_AGGREGATES < 64);
 /// Particles per aggregate below which a coarse level is not worth its passes: a model of fewer than
 /// `2 × MIN_SIZE` free particles is solved with block-Jacobi alone.
 pub(super) const MIN_SIZE: usize = 16;
@@ -45,19 +50,16 @@ pub(super) struct Coarse {
     n: usize,
     /// Each aggregate's mass.
     mass: Vec<f64>,
-    /// `Pᵀ A P`, then its lower Cholesky factor `L` (row-major, `3n × 3n`), and `X = L⁻¹` (lower, row-major: an
-    /// application is then two products, `Xᵀ (X y)`; the two triangular solves' chains of dependent operations
-    /// cost ~4× as much at the benchmark cloth's 72 unknowns, forming `(Pᵀ A P)⁻¹ = Xᵀ X` another `(3n)³ / 6`
-    /// products a step).
+    /// `Pᵀ A P`, then (after [`factor`]) its inverse, row-major, `3n × 3n`; and scratch for the factor.
     l: Vec<f64>,
     xinv: Vec<f64>,
-    /// Restricted residual, `X y`, the coarse solution (each `3n + 3`: the last three, the pinned particles'
-    /// slot), and a column of scratch for the factor.
+    /// Restricted residual and the coarse solution (each `3n + 3`: the last three, the pinned particles' slot),
+    /// and a column of scratch for the factor.
     y: Vec<f64>,
-    y4: Vec<f64>,
-    w: Vec<f64>,
     x: Vec<f64>,
     col: Vec<f64>,
+    /// The runs of consecutive free particles in one aggregate: `(first, one past the last, aggregate)`.
+    runs: Vec<(u32, u32, u32)>,
     /// The springs whose ends lie in different aggregates or on a pinned particle (the others add nothing),
     /// grouped by their pair of aggregates: pair `q` is `(a, b)` = `pairs[q].0, pairs[q].1` (`b` may be
     /// the pinned slot, past the aggregates) and its springs are `cross[pairs[q - 1].2..pairs[q].2]`.
@@ -141,7 +143,7 @@ impl Coarse {
             if c <= 0.0 {
                 continue;
             }
-            let sums = &mut self.w;
+            let sums = &mut self.x;
             sums.clear();
             sums.resize(dim, 0.0);
             for (i, &k) in self.agg.iter().enumerate() {
@@ -162,7 +164,7 @@ impl Coarse {
         }
         self.xinv.resize(dim * dim, 0.0);
         self.col.resize(dim, 0.0);
-        for v in [&mut self.y, &mut self.w, &mut self.x] {
+        for v in [&mut self.y, &mut self.x] {
             v.resize(dim + 3, 0.0);
         }
         if factor(&mut self.l, dim, &mut self.col, &mut self.xinv) {
@@ -231,6 +233,14 @@ impl Coarse {
         }
         // The pinned particles' slot: one past the aggregates (a residual summed there is never read).
         self.agg.iter_mut().filter(|k| **k == NONE).for_each(|k| *k = n);
+        self.runs.clear();
+        for (i, &k) in self.agg.iter().enumerate() {
+            match self.runs.last_mut() {
+                Some(run) if run.2 == k && run.1 as usize == i => run.1 += 1,
+                _ if k < n => self.runs.push((i as u32, i as u32 + 1, k)),
+                _ => {}
+            }
+        }
         self.mass.clear();
         self.mass.resize(n as usize, 0.0);
         for (i, &k) in self.agg.iter().enumerate() {
@@ -263,40 +273,52 @@ impl Coarse {
         self.aggregates = n as usize;
     }
 
-    /// `z += P (Pᵀ A P)⁻¹ Pᵀ r` on vectors stored per component (`cg_runs.rs`): the residual summed per aggregate
-    /// in particle order (a pinned particle's into a slot the solve ignores), the coarse solve, and each particle's
-    /// aggregate's correction added. Inlined into the runs' CG, so compiled for its instruction set.
+    /// `z += P (Pᵀ A P)⁻¹ Pᵀ r` on vectors stored per component (`cg_runs.rs`): the residual summed over each
+    /// run of consecutive particles of one aggregate (in the model's type, a short contiguous sum), the runs' sums
+    /// added per aggregate in particle order, the coarse solve, and each particle's aggregate's correction added.
+    /// Measured against a pass over the particles one by one, each looking up its aggregate (~20 instructions a
+    /// particle and direction, 2.6 µs both ways): runs 2.2 µs; runs cut to windows of 8 lanes summed branch-free,
+    /// slower (3.4 µs for the restriction alone). The prolongation reads a table whose masked index needs no bounds
+    /// check. Inlined into the runs' CG, so compiled for its instruction set.
     #[inline(always)]
     pub fn apply_soa<R: Real>(&mut self, r: &[Vec<R>; 3], z: &mut [Vec<R>; 3]) {
         let np = self.agg.len();
-        let agg = &self.agg[..];
         let (rx, ry, rz) = (&r[0][..np], &r[1][..np], &r[2][..np]);
-        // Four partial sums, particle `i`'s in set `i % 4` (a chain of additions into one aggregate's entry,
-        // through memory, would cost a store-to-load forwarding per particle), added in a fixed order after.
-        let stride = self.y.len();
-        self.y4.resize(4 * stride, 0.0);
-        self.y4.iter_mut().for_each(|v| *v = 0.0);
-        let y4 = &mut self.y4[..];
-        for i in 0..np {
-            let k = (i & 3) * stride + 3 * agg[i] as usize;
-            let yk = &mut y4[k..k + 3];
-            yk[0] += rx[i].to_f64();
-            yk[1] += ry[i].to_f64();
-            yk[2] += rz[i].to_f64();
+        for v in self.y.iter_mut() {
+            *v = 0.0;
         }
-        for (j, v) in self.y.iter_mut().enumerate() {
-            *v = (y4[j] + y4[stride + j]) + (y4[2 * stride + j] + y4[3 * stride + j]);
+        let y = &mut self.y[..];
+        for &(start, end, k) in &self.runs {
+            let (start, end, k) = (start as usize, end as usize, 3 * k as usize);
+            let (mut sx, mut sy, mut sz) = (R::ZERO, R::ZERO, R::ZERO);
+            for i in start..end {
+                sx += rx[i];
+                sy += ry[i];
+                sz += rz[i];
+            }
+            let yk = &mut y[k..k + 3];
+            yk[0] += sx.to_f64();
+            yk[1] += sy.to_f64();
+            yk[2] += sz.to_f64();
         }
         self.solve();
-        let (agg, x) = (&self.agg[..], &self.x[..]);
+        // Each particle's correction looked up in a table of 64 entries per component, its index masked so that
+        // the lookup needs no bounds check (at most 2 × MAX_AGGREGATES + 1 slots are used: see below).
+        let mut table = [[R::ZERO; 64]; 3];
+        for (k, xk) in self.x.chunks_exact(3).enumerate() {
+            for c in 0..3 {
+                table[c][k] = R::from_f64(xk[c]);
+            }
+        }
+        let [tx, ty, tz] = &table;
+        let agg = &self.agg[..np];
         let [zx, zy, zz] = z;
         let (zx, zy, zz) = (&mut zx[..np], &mut zy[..np], &mut zz[..np]);
         for i in 0..np {
-            let k = 3 * agg[i] as usize;
-            let xk = &x[k..k + 3];
-            zx[i] += R::from_f64(xk[0]);
-            zy[i] += R::from_f64(xk[1]);
-            zz[i] += R::from_f64(xk[2]);
+            let k = (agg[i] & 63) as usize;
+            zx[i] += tx[k];
+            zy[i] += ty[k];
+            zz[i] += tz[k];
         }
     }
 
@@ -325,34 +347,21 @@ impl Coarse {
         self.y[..dim].iter().zip(&self.x[..dim]).map(|(a, b)| a * b).sum()
     }
 
-    /// `x = (Pᵀ A P)⁻¹ y = Xᵀ (X y)` with `X = L⁻¹` (lower triangular): `X y` row by row in four partial sums,
-    /// then `Xᵀ` of it as a sum of `X`'s rows scaled (no chain of dependent operations; a fixed order: fixed
-    /// bits). The slot of the pinned particles (the last three entries) gets zero.
+    /// `x = (Pᵀ A P)⁻¹ y` as a sum of the inverse's columns scaled, which are its rows (it is symmetric): each a
+    /// contiguous `x += s a` of full length, so it vectorises (a fixed order: fixed bits). Measured on the
+    /// benchmark cloth's 72 unknowns: the same product as rows' dot products, which LLVM packed poorly, 2.1 µs an
+    /// application; `Xᵀ (X y)` with `X = L⁻¹` as two such sums over triangles (no `Xᵀ X` to form), 1.7× this one,
+    /// which outweighed the set-up it saved. The slot of the pinned particles (the last three entries) gets zero.
     #[inline(always)]
     fn solve(&mut self) {
         let dim = 3 * self.n;
-        let (xinv, y, w, x) = (&self.xinv[..dim * dim], &self.y[..dim], &mut self.w[..dim], &mut self.x[..]);
-        for r in 0..dim {
-            let (row, y) = (&xinv[r * dim..r * dim + r + 1], &y[..r + 1]);
-            let mut acc = [0.0; 4];
-            let whole = row.len() / 4 * 4;
-            for (a, b) in row[..whole].chunks_exact(4).zip(y[..whole].chunks_exact(4)) {
-                acc[0] += a[0] * b[0];
-                acc[1] += a[1] * b[1];
-                acc[2] += a[2] * b[2];
-                acc[3] += a[3] * b[3];
-            }
-            for (l, (a, b)) in row[whole..].iter().zip(&y[whole..]).enumerate() {
-                acc[l] += a * b;
-            }
-            w[r] = (acc[0] + acc[1]) + (acc[2] + acc[3]);
-        }
+        let (inv, y, x) = (&self.l[..dim * dim], &self.y[..dim], &mut self.x[..]);
         for v in x.iter_mut() {
             *v = 0.0;
         }
-        for r in 0..dim {
-            let s = w[r];
-            for (v, &a) in x[..r + 1].iter_mut().zip(&xinv[r * dim..r * dim + r + 1]) {
+        let xd = &mut x[..dim];
+        for (row, &s) in inv.chunks_exact(dim).zip(y) {
+            for (v, &a) in xd.iter_mut().zip(row) {
                 *v += s * a;
             }
         }
@@ -360,15 +369,16 @@ impl Coarse {
 }
 
 crate::isa::wide_kernel! {
-    /// Factors the symmetric positive definite `dim × dim` matrix `a` (row-major, lower triangle read) as `L Lᵀ`
-    /// in place and writes `X = L⁻¹` into `x` (lower, row-major); `col` is scratch of `dim`. False if `a` is not
-    /// positive definite. Compiled for AVX-512 or AVX2 when the CPU has them (the same bits: see `crate::isa`).
+    /// Inverts the symmetric positive definite `dim × dim` matrix `a` (row-major, lower triangle read) in place,
+    /// through its Cholesky factor `L` and `X = L⁻¹` (in `x`, scratch of `dim²`): `a⁻¹ = Xᵀ X`; `col` is scratch
+    /// of `dim`. False if `a` is not positive definite. Compiled for AVX-512 or AVX2 when the CPU has them (the same bits: see `crate::isa`).
     fn factor[](a: &mut [f64], dim: usize, col: &mut [f64], x: &mut [f64]) -> bool => factor_kernel[]
 }
 
 /// [`factor`]'s body: Cholesky right-looking, with column `j` copied into `col` so that each row's update is a
-/// contiguous `a -= s b`; then `L⁻¹` by forward elimination on the identity, row operations again. Every inner loop
-/// is a contiguous `a -= s b` (no chain of dependent additions), so it vectorises.
+/// contiguous `a -= s b`; then `L⁻¹` by forward elimination on the identity, row operations again; then `Xᵀ X` as
+/// a sum of `X`'s rows' outer products (lower triangle, mirrored). Every inner loop is a contiguous `a += s b` (no
+/// chain of dependent additions), so it vectorises.
 #[inline(always)]
 fn factor_kernel(a: &mut [f64], dim: usize, col: &mut [f64], x: &mut [f64]) -> bool {
     let (a, col, x) = (&mut a[..dim * dim], &mut col[..dim], &mut x[..dim * dim]);
@@ -410,6 +420,22 @@ fn factor_kernel(a: &mut [f64], dim: usize, col: &mut [f64], x: &mut [f64]) -> b
             }
         }
     }
+    for v in a.iter_mut() {
+        *v = 0.0;
+    }
+    for r in 0..dim {
+        let xr = &x[r * dim..r * dim + r + 1];
+        for (p, &s) in xr.iter().enumerate() {
+            for (v, &b) in a[p * dim..p * dim + p + 1].iter_mut().zip(xr) {
+                *v += s * b;
+            }
+        }
+    }
+    for p in 0..dim {
+        for q in 0..p {
+            a[q * dim + p] = a[p * dim + q];
+        }
+    }
     true
 }
 
@@ -434,12 +460,12 @@ mod tests {
         let a = spd();
         let mut c = Coarse { n: 3, l: a.clone(), xinv: vec![0.0; 81], col: vec![0.0; 9], ..Coarse::default() };
         assert!(factor(&mut c.l, 9, &mut c.col, &mut c.xinv));
-        // L Lᵀ = A.
-        let l = |r: usize, k: usize| if k <= r { c.l[r * 9 + k] } else { 0.0 };
+        // A A⁻¹ = I, and A⁻¹ symmetric.
         for r in 0..9 {
             for q in 0..9 {
-                let v: f64 = (0..9).map(|k| l(r, k) * l(q, k)).sum();
-                assert!((v - a[r * 9 + q]).abs() < 1e-9, "L Lᵀ[{r}][{q}] = {v}, want {}", a[r * 9 + q]);
+                let v: f64 = (0..9).map(|k| a[r * 9 + k] * c.l[k * 9 + q]).sum();
+                assert!((v - if r == q { 1.0 } else { 0.0 }).abs() < 1e-9, "A A⁻¹[{r}][{q}] = {v}");
+                assert_eq!(c.l[r * 9 + q], c.l[q * 9 + r]);
             }
         }
         // x = A⁻¹ y for y = e_j and a dense y; the pinned slot's entries are ignored and come back zero.
@@ -456,7 +482,7 @@ mod tests {
                 })
                 .collect();
             c.y[9..].iter_mut().for_each(|v| *v = 7.0);
-            (c.w, c.x) = (vec![0.0; 12], vec![0.0; 12]);
+            c.x = vec![0.0; 12];
             c.solve();
             for r in 0..9 {
                 let v: f64 = (0..9).map(|k| a[r * 9 + k] * c.x[k]).sum();
