@@ -7,9 +7,10 @@
 //! system restricted to patches moving rigidly in translation (unsmoothed aggregation, as in algebraic multigrid;
 //! Tamstorf, Jones & McCormick 2015 used smoothed aggregation for cloth): particles are gathered into
 //! aggregates along their springs, the aggregates' `3 n_c × 3 n_c` operator `Pᵀ A P` is formed and factored
-//! at every step (dense Cholesky: `n_c` is about [`MAX_AGGREGATES`]), and each application of the preconditioner adds
-//! `P (Pᵀ A P)⁻¹ Pᵀ r` to block-Jacobi's `B r` (additive two-level Schwarz: symmetric positive definite, so CG
-//! stays CG, and the stopping rule `|r| ≤ tol |b|` is unchanged, so the solution's accuracy is).
+//! at every step (dense Cholesky; `n_c` is 24 to [`MAX_AGGREGATES`], growing with the model: [`aggregates_for`]),
+//! and each application of the preconditioner adds `P (Pᵀ A P)⁻¹ Pᵀ r` to block-Jacobi's `B r` (additive
+//! two-level Schwarz: symmetric positive definite, so CG stays CG, and the stopping rule `|r| ≤ tol |b|` is
+//! unchanged, so the solution's accuracy is).
 //!
 //! `Pᵀ A P` is cheap to form: a spring inside an aggregate moves both its ends alike under `P` and adds nothing;
 //! a spring across two adds its block `B_s` to both diagonal blocks and `-B_s` to the two off-diagonal ones; a
@@ -29,12 +30,26 @@
 use crate::model::Model;
 use crate::real::{Real, Vector3};
 
-/// The aggregates a connected model is cut into (the factor's cost per step grows as their cube, an application's
-/// as their square). Each piece a body is broken into makes at least one of its own; past
-/// [`MAX_AGGREGATES`] × 2 the level is left off (pieces are then many and small, block-Jacobi's good case).
-pub(super) const MAX_AGGREGATES: usize = 24;
+/// The most aggregates a connected model is cut into: [`aggregates_for`] grows with the model up to this. Each piece
+/// a body is broken into makes at least one of its own; past twice the count aimed at, the level is left off (the
+/// pieces are then many and small, block-Jacobi's good case, and the factor's cost grows as the count's cube).
+pub(super) const MAX_AGGREGATES: usize = 96;
+
+/// The aggregates to cut `free` particles into: 24 up to 1,024 particles, then growing as `free^0.43` up to
+/// [`MAX_AGGREGATES`]. A step costs about the factor (`∝ n_c³`) plus the iterations (`∝ √(N / n_c)` for aggregates
+/// of `N / n_c` particles on a sheet) times `N` each; the sum is least for `n_c ∝ N^(3/7)`. Measured on the
+/// benchmark cloths at 1/60 s (`benches/RESULTS.md` issue 15 (50)): 32² 16/24/32 aggregates alternated, 24 the
+/// fastest; 64² 24 → 90.7 iterations, 48 → 73.3, 96 → 60.9, the time flat within the host's noise; 128² 24 →
+/// 146.8 iterations (113.6 ms a step), 48 → 119.5 (76.8 ms), 64 → 112.0 (75.5 ms), 96 → 98.2 (61.3 ms), against
+/// 197.6 with block-Jacobi alone (capped at 200 iterations: not converged).
+pub(super) fn aggregates_for(free: usize) -> usize {
+    let grown = 24.0 * (free as f64 / 1024.0).max(1.0).powf(3.0 / 7.0);
+    (grown.round() as usize).clamp(24, MAX_AGGREGATES)
+}
 // The prolongation's table holds every slot: the aggregates and the pinned particles' one.
-const _: () = assert!(2 * MAX_AGGREGATES < 64);
+const _: () = assert!(2 * MAX_AGGREGATES < TABLE);
+/// Slots of the prolongation's table (a power of two: an index masked by `TABLE - 1` needs no bounds check).
+const TABLE: usize = 256;
 /// Particles per aggregate below which a coarse level is not worth its passes: a model of fewer than
 /// `2 × MIN_SIZE` free particles is solved with block-Jacobi alone.
 pub(super) const MIN_SIZE: usize = 16;
@@ -199,7 +214,8 @@ impl Coarse {
         if free < 2 * MIN_SIZE {
             return;
         }
-        let size = free.div_ceil(MAX_AGGREGATES).max(MIN_SIZE);
+        let target = aggregates_for(free);
+        let size = free.div_ceil(target).max(MIN_SIZE);
         let mut members = Vec::with_capacity(free);
         let mut n = 0u32;
         for seed in 0..np {
@@ -228,7 +244,7 @@ impl Coarse {
             }
             n += 1;
         }
-        if n as usize > 2 * MAX_AGGREGATES {
+        if n as usize > 2 * target {
             return;
         }
         // The pinned particles' slot: one past the aggregates (a residual summed there is never read).
@@ -304,7 +320,7 @@ impl Coarse {
         self.solve();
         // Each particle's correction looked up in a table of 64 entries per component, its index masked so that
         // the lookup needs no bounds check (at most 2 × MAX_AGGREGATES + 1 slots are used: see below).
-        let mut table = [[R::ZERO; 64]; 3];
+        let mut table = [[R::ZERO; TABLE]; 3];
         for (k, xk) in self.x.chunks_exact(3).enumerate() {
             for c in 0..3 {
                 table[c][k] = R::from_f64(xk[c]);
@@ -315,7 +331,7 @@ impl Coarse {
         let [zx, zy, zz] = z;
         let (zx, zy, zz) = (&mut zx[..np], &mut zy[..np], &mut zz[..np]);
         for i in 0..np {
-            let k = (agg[i] & 63) as usize;
+            let k = agg[i] as usize & (TABLE - 1);
             zx[i] += tx[k];
             zy[i] += ty[k];
             zz[i] += tz[k];
@@ -371,7 +387,8 @@ impl Coarse {
 crate::isa::wide_kernel! {
     /// Inverts the symmetric positive definite `dim × dim` matrix `a` (row-major, lower triangle read) in place,
     /// through its Cholesky factor `L` and `X = L⁻¹` (in `x`, scratch of `dim²`): `a⁻¹ = Xᵀ X`; `col` is scratch
-    /// of `dim`. False if `a` is not positive definite. Compiled for AVX-512 or AVX2 when the CPU has them (the same bits: see `crate::isa`).
+    /// of `dim`. False if `a` is not positive definite. Compiled for AVX-512 or AVX2 when the CPU has them (the
+    /// same bits: see `crate::isa`).
     fn factor[](a: &mut [f64], dim: usize, col: &mut [f64], x: &mut [f64]) -> bool => factor_kernel[]
 }
 
@@ -453,6 +470,15 @@ mod tests {
             }
         }
         a
+    }
+
+    #[test]
+    fn aggregates_grow_with_the_model_within_bounds() {
+        assert_eq!(aggregates_for(500), 24);
+        assert_eq!(aggregates_for(1024), 24);
+        assert_eq!(aggregates_for(4096), 43);
+        assert_eq!(aggregates_for(16384), 79);
+        assert_eq!(aggregates_for(1 << 20), MAX_AGGREGATES);
     }
 
     #[test]

@@ -59,9 +59,10 @@ pub struct SolverConfig {
     /// CG iteration cap (implicit only); the last iterate is used if reached. Default 200.
     pub cg_max_iterations: usize,
     /// A second level in CG's preconditioner (implicit only): besides each particle's 3×3 block, the system on
-    /// up to 24 aggregates of particles moving together, solved exactly at every iteration (see
-    /// `solver/coarse.rs`). The same stopping rule and so the same accuracy, in about half the iterations at large
-    /// steps (the 32² benchmark cloth at 1/60 s: 107 → 57). Default true; false gives block-Jacobi alone.
+    /// aggregates of particles moving together (24 up to 1,024 particles, up to 96 for large models), solved
+    /// exactly at every iteration (see `solver/coarse.rs`). The same stopping rule and so the same accuracy, in
+    /// about half the iterations at large steps (the 32² benchmark cloth at 1/60 s: 107 → 57; 128²: 198 → 102).
+    /// Default true; false gives block-Jacobi alone.
     pub cg_coarse: bool,
     /// Check every step for NaN/inf and return [`StepError::NonFinite`]. Default true (cost: a compare per
     /// particle inside the update pass).
