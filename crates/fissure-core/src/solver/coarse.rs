@@ -341,18 +341,25 @@ impl Coarse {
     /// `z += P (Pᵀ A P)⁻¹ Pᵀ r` on vectors of 3-vectors (`implicit.rs`), as [`Coarse::apply_soa`].
     pub fn apply<R: Real>(&mut self, r: &[R::V], z: &mut [R::V]) {
         let np = self.agg.len();
-        self.y.iter_mut().for_each(|v| *v = 0.0);
-        for (&k, ri) in self.agg.iter().zip(&r[..np]) {
+        let r = &r[..np];
+        for v in self.y.iter_mut() {
+            *v = 0.0;
+        }
+        for &(start, end, k) in &self.runs {
             let k = 3 * k as usize;
-            let (yk, ri) = (&mut self.y[k..k + 3], ri.to_dvec3());
-            yk[0] += ri.x;
-            yk[1] += ri.y;
-            yk[2] += ri.z;
+            let s = r[start as usize..end as usize].iter().fold(R::V::ZERO, |a, &b| a + b).to_dvec3();
+            let yk = &mut self.y[k..k + 3];
+            yk[0] += s.x;
+            yk[1] += s.y;
+            yk[2] += s.z;
         }
         self.solve();
+        let mut table = [R::V::ZERO; TABLE];
+        for (t, xk) in table.iter_mut().zip(self.x.chunks_exact(3)) {
+            *t = R::V::from_dvec3(glam::DVec3::from_slice(xk));
+        }
         for (&k, zi) in self.agg.iter().zip(&mut z[..np]) {
-            let k = 3 * k as usize;
-            *zi += R::V::from_dvec3(glam::DVec3::from_slice(&self.x[k..k + 3]));
+            *zi += table[k as usize & (TABLE - 1)];
         }
     }
 
