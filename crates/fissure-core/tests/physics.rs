@@ -337,10 +337,7 @@ fn undamped_symplectic_integrators_keep_energy_bounded_for_1e5_steps() {
 #[test]
 fn implicit_warm_start_changes_iterations_not_the_solution() {
     let n = 16;
-    let opts = common::bench_cloth_options(vec![0, n - 1], None);
-    let mut b = ModelBuilder::new();
-    b.add_cloth_grid(n, n, 0.01, |p| DVec3::new(p.x, 1.0, p.y), &opts).unwrap();
-    let model: Model<f64> = b.finalize().unwrap();
+    let model = hanging_cloth(n);
     let config = SolverConfig {
         integrator: Integrator::ImplicitEuler,
         cg_tolerance: 1e-9,
@@ -383,10 +380,7 @@ fn implicit_warm_start_changes_iterations_not_the_solution() {
 #[test]
 fn implicit_solves_on_runs_and_per_spring_agree() {
     let n = 32;
-    let opts = common::bench_cloth_options(vec![0, n - 1], None);
-    let mut b = ModelBuilder::new();
-    b.add_cloth_grid(n, n, 0.01, |p| DVec3::new(p.x, 1.0, p.y), &opts).unwrap();
-    let grid: Model<f64> = b.finalize().unwrap();
+    let grid = hanging_cloth(n);
     assert!(grid.springs_are_runs());
     let mesh = reversed_springs(&grid);
     assert!(!mesh.springs_are_runs());
@@ -408,6 +402,14 @@ fn implicit_solves_on_runs_and_per_spring_agree() {
     let sag = grid.particle_q0[n * n / 2].y - a.particle_q[n * n / 2].y;
     assert!(sag > 0.01, "the cloth falls and sags: {sag} m");
     assert!(worst < 1e-9, "the two solves differ by {worst:e} m");
+}
+
+/// The benchmark cloth's `n × n` grid at 1 cm, held at two corners, in `f64` (the implicit solver's tests).
+fn hanging_cloth(n: usize) -> Model<f64> {
+    let opts = common::bench_cloth_options(vec![0, n - 1], None);
+    let mut b = ModelBuilder::new();
+    b.add_cloth_grid(n, n, 0.01, |p| DVec3::new(p.x, 1.0, p.y), &opts).unwrap();
+    b.finalize().unwrap()
 }
 
 /// `grid`'s particles with its springs added in reverse order: no runs, so implicit Euler takes the per-spring path.
@@ -432,10 +434,7 @@ fn reversed_springs(grid: &Model<f64>) -> Model<f64> {
 #[test]
 fn implicit_coarse_level_changes_iterations_not_the_solution() {
     let n = 32;
-    let opts = common::bench_cloth_options(vec![0, n - 1], None);
-    let mut b = ModelBuilder::new();
-    b.add_cloth_grid(n, n, 0.01, |p| DVec3::new(p.x, 1.0, p.y), &opts).unwrap();
-    let grid: Model<f64> = b.finalize().unwrap();
+    let grid = hanging_cloth(n);
     let mesh = reversed_springs(&grid);
     for model in [&grid, &mesh] {
         let config = |cg_coarse| SolverConfig {
