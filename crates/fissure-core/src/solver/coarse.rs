@@ -188,8 +188,9 @@ impl Coarse {
     }
 
     /// Gathers `m`'s free particles into aggregates along its springs (breadth first from the lowest unassigned
-    /// particle, up to the size that makes at most [`MAX_AGGREGATES`]), with each aggregate's mass and the springs
-    /// that cross between aggregates; kept while the model's counts and pins are the same.
+    /// particle, up to the size that makes [`aggregates_for`] of them in a connected model), with each aggregate's
+    /// mass, its runs of consecutive particles and the springs that cross between aggregates; kept while the
+    /// model's counts and pins are the same.
     fn aggregate<R: Real>(&mut self, m: &Model<R>) {
         let np = m.particle_count();
         let w = &m.particle_inv_mass;
