@@ -219,15 +219,16 @@ pub(crate) fn config(
     integrator: Integrator,
     cg_tolerance: f64,
     cg_max_iterations: usize,
+    cg_coarse: bool,
     substep_safety: Option<f64>,
 ) -> PyResult<SolverConfig> {
     let c = SolverConfig {
         integrator: integrator.into(),
         cg_tolerance,
         cg_max_iterations,
+        cg_coarse,
         check_finite: true,
         substep_safety,
-        ..SolverConfig::default()
     };
     c.validate().map_err(value_err)?;
     Ok(c)
@@ -245,17 +246,19 @@ pub(crate) fn timers_dict<'py>(py: Python<'py>, t: &fissure::StageTimers) -> PyR
 
 #[pymethods]
 impl Solver {
-    /// A solver; options are keyword-only.
+    /// A solver; options are keyword-only. `cg_coarse` (implicit Euler only): the coarse level in CG's
+    /// preconditioner (about half the iterations at large steps; False: block-Jacobi alone).
     #[new]
     #[pyo3(signature = (*, integrator = Integrator::SYMPLECTIC_EULER, cg_tolerance = 1e-5, cg_max_iterations = 200,
-        substep_safety = None))]
+        cg_coarse = true, substep_safety = None))]
     pub(crate) fn new(
         integrator: Integrator,
         cg_tolerance: f64,
         cg_max_iterations: usize,
+        cg_coarse: bool,
         substep_safety: Option<f64>,
     ) -> PyResult<Self> {
-        let c = config(integrator, cg_tolerance, cg_max_iterations, substep_safety)?;
+        let c = config(integrator, cg_tolerance, cg_max_iterations, cg_coarse, substep_safety)?;
         Ok(Solver { inner: Prec::F32(fissure::CpuSolver::new(c)) })
     }
 

@@ -235,6 +235,7 @@ class Solver:
         integrator: Integrator = ...,
         cg_tolerance: float = 1e-5,
         cg_max_iterations: int = 200,
+        cg_coarse: bool = True,
         substep_safety: float | None = None,
     ) -> Solver: ...
     def step(self, model: Model, state: State, dt: float, steps: int = 1) -> None: ...
@@ -251,6 +252,7 @@ class World:
         integrator: Integrator = ...,
         cg_tolerance: float = 1e-5,
         cg_max_iterations: int = 200,
+        cg_coarse: bool = True,
         substep_safety: float | None = None,
         max_events_per_step: int = 32,
         averaged_window: float | None = None,
