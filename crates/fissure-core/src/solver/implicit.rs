@@ -2,9 +2,10 @@
 //! solved matrix-free by preconditioned conjugate gradients, springs by their exact stretched Jacobians
 //! ([`crate::forces::spring::implicit_coefficients`]) and the gas by its rank-one Jacobian `nRT/V² g gᵀ`. The
 //! preconditioner is block-Jacobi plus, by default (`SolverConfig::cg_coarse`), a coarse level on aggregates of
-//! particles (`coarse.rs`: about half the iterations at large steps). CG starts from the last step's `Δv` when a step continues the solver's last one. A grid cloth
-//! below `par::PAR_MIN` is solved in struct-of-arrays form over its spring runs (`cg_runs.rs`, ~3× faster per
-//! iteration); any other model per spring here, its passes split between the threads from `PAR_MIN` elements.
+//! particles (`coarse.rs`: about half the iterations at large steps). CG starts from the last step's `Δv` when a
+//! step continues the solver's last one. A grid cloth below `par::PAR_MIN` is solved in struct-of-arrays form over
+//! its spring runs (`cg_runs.rs`, ~3× faster per iteration); any other model per spring here, its passes split
+//! between the threads from `PAR_MIN` elements.
 
 use super::*;
 
