@@ -163,8 +163,8 @@ impl World {
     /// `gas_density` \[kg/m^3\], `start_time` \[s\], `splits_per_body` (spring-mode splits per body per step),
     /// `nucleation_interval` \[s\] (least time between new cracks in a body; None: its wave-crossing time).
     #[new]
-    #[pyo3(signature = (model, *, integrator = Integrator::SYMPLECTIC_EULER, cg_tolerance = 1e-5, cg_max_iterations = 200,
-        cg_coarse = true, substep_safety = None,
+    #[pyo3(signature = (model, *, integrator = Integrator::SYMPLECTIC_EULER, cg_tolerance = 1e-5,
+        cg_max_iterations = 200, cg_coarse = true, substep_safety = None,
         max_events_per_step = 32, averaged_window = None, discharge_coefficient = 0.6, gas_density = 1.2,
         start_time = 0.0, splits_per_body = 1, nucleation_interval = None))]
     #[allow(clippy::too_many_arguments)]
