@@ -98,7 +98,8 @@ def test_ball_comes_to_rest_on_ground_with_implicit_euler():
 
 def test_implicit_coarse_level_changes_cost_not_motion():
     # The coarse level (default) is a preconditioner: a 32² cloth at 1/60 s lands where block-Jacobi alone puts it,
-    # to the CG tolerance (1e-5 of the right-hand side, f32): the positions agree to 1e-4 m after 10 steps.
+    # to the CG tolerance (1e-5 of the right-hand side, f32): the positions agree to 1e-4 m after 10 steps, in which
+    # the cloth, released from its grid, swings by more than 1 mm.
     b = fissure.ModelBuilder()
     b.add_cloth_grid(32, 32, 0.01, particle_mass=1e-3, pins=[0, 31])
     model = b.finalize()
@@ -109,7 +110,7 @@ def test_implicit_coarse_level_changes_cost_not_motion():
                                                                                              steps=10)
         ends.append(state.positions)
     assert np.abs(ends[0] - ends[1]).max() < 1e-4
-    assert model.state().positions[:, 1].mean() - ends[0][:, 1].mean() > 0.01  # it fell and sags
+    assert np.abs(ends[0] - model.state().positions).max() > 1e-3  # it moved: the agreement above is not trivial
     with pytest.raises(TypeError):
         fissure.Solver(cg_coarse="yes")
 
