@@ -79,6 +79,20 @@ impl<P: Copy + Default> HashGrid<P> {
     /// for the dense layout, else of side `coarse` (small cells pay with rows read in one run each, and cost
     /// more than they save as hashed cells: see the module docs).
     pub fn build_fine(&mut self, fine: f64, coarse: f64, n: usize, point: impl Fn(usize) -> Option<(DVec3, P)>) {
+        self.build_fine_from(fine, coarse, 0..n, point);
+    }
+
+    /// [`HashGrid::build_fine`] over the points `ks` only (ascending; `point` is not called for the others, which
+    /// are left out). The same grid as `build_fine` with a `point` that leaves out every point not in `ks`: a
+    /// caller that knows most points are left out (the contact pass's list ops, on a scene whose bodies lie
+    /// mostly apart) skips their tests.
+    pub fn build_fine_from(
+        &mut self,
+        fine: f64,
+        coarse: f64,
+        ks: impl IntoIterator<Item = usize>,
+        point: impl Fn(usize) -> Option<(DVec3, P)>,
+    ) {
         let (mut kept, mut slot, mut pts) =
             (std::mem::take(&mut self.kept), std::mem::take(&mut self.slot), std::mem::take(&mut self.pts));
         let mut kept_payload = std::mem::take(&mut self.kept_payload);
@@ -88,7 +102,7 @@ impl<P: Copy + Default> HashGrid<P> {
         kept_payload.clear();
         // The points kept, in index order, and their box.
         let (mut plo, mut phi) = (DVec3::INFINITY, DVec3::NEG_INFINITY);
-        for k in 0..n {
+        for k in ks {
             if let Some((p, pay)) = point(k) {
                 (plo, phi) = (plo.min(p), phi.max(p));
                 kept.push(k as u32);

@@ -143,6 +143,8 @@ pub(crate) struct Elements {
     pub particles: Vec<u32>,
     /// Largest thickness of any body in contact \[m\].
     pub h_max: f64,
+    /// How many of `edges` each body has (by its lower end's body), indexed by body.
+    pub edges_per_body: Vec<u32>,
 }
 
 impl Elements {
@@ -193,7 +195,9 @@ impl Elements {
         let particles: Vec<u32> = (0..n as u32).filter(|&i| used[i as usize]).collect();
         let h_max = m.body_contact_thickness.iter().map(|h| h.to_f64()).fold(0.0, f64::max);
         let edge_ids = (0..edges.len() as u32).collect();
-        Elements { tris, edges, edge_ids, particles, h_max }
+        let mut edges_per_body = vec![0u32; m.body_count()];
+        edges.iter().for_each(|e| edges_per_body[m.particle_body[e[0] as usize] as usize] += 1);
+        Elements { tris, edges, edge_ids, particles, h_max, edges_per_body }
     }
 }
 

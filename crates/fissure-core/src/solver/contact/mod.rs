@@ -200,6 +200,9 @@ pub(super) struct ContactScratch<R: Real> {
     tgrid: [HashGrid<Box32>; 2],
     /// Each particle's first test in a list op (see `lists`; kept: the ops run often).
     near_parts: Vec<bool>,
+    /// The elements each grid of a list op may keep (see `lists`; kept: the ops run often): vertices, edges and
+    /// triangle centroids, each of the bodies but the largest, then of the largest.
+    grid_cands: [Vec<u32>; 6],
     /// The searched triangles' centroids and search boxes (refreshes only; `None`: not searched).
     centroids: Vec<Option<(DVec3, Box32)>>,
     /// Each edge's box at `x0` when the candidates were found (the searcher's own box, and the source of the edge
