@@ -289,6 +289,32 @@ fn pack(c: [i64; 3]) -> u64 {
 mod tests {
     use super::*;
 
+    /// A grid built over a list of the points is the grid built over all of them with the others left out: the
+    /// same visits, in the same order, in either layout.
+    #[test]
+    fn a_grid_over_listed_points_is_the_grid_that_leaves_the_others_out() {
+        let mut seed = 5u64;
+        let mut next = || {
+            seed = seed.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            (seed >> 11) as f64 / (1u64 << 53) as f64
+        };
+        let pts: Vec<DVec3> = (0..1200).map(|_| DVec3::new(next(), next(), next()) * 2.0 - 1.0).collect();
+        for every in [2, 3, 61] {
+            let listed: Vec<usize> = (0..pts.len()).filter(|k| k % every == 1).collect();
+            let (mut all, mut from) = (HashGrid::<u32>::default(), HashGrid::<u32>::default());
+            all.build_fine(0.07, 0.2, pts.len(), |k| (k % every == 1).then_some((pts[k], k as u32)));
+            from.build_fine_from(0.07, 0.2, listed.iter().copied(), |k| Some((pts[k], k as u32)));
+            assert_eq!(all.is_dense(), from.is_dense());
+            for q in 0..40 {
+                let (lo, hi) = (pts[q * 29] - 0.25, pts[q * 29] + DVec3::new(0.1, 0.3, 0.2));
+                let (mut a, mut b) = (Vec::new(), Vec::new());
+                all.query(lo, hi, |i, &p| a.push((i, p)));
+                from.query(lo, hi, |i, &p| b.push((i, p)));
+                assert_eq!(a, b, "one in {every}, query {q}");
+            }
+        }
+    }
+
     /// The integer floor agrees with `f64::floor` (then `as i64`) at integers, just below and above them, on
     /// both sides of zero, and where the conversion saturates.
     #[test]
