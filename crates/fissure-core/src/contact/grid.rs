@@ -289,16 +289,20 @@ fn pack(c: [i64; 3]) -> u64 {
 mod tests {
     use super::*;
 
-    /// A grid built over a list of the points is the grid built over all of them with the others left out: the
-    /// same visits, in the same order, in either layout.
-    #[test]
-    fn a_grid_over_listed_points_is_the_grid_that_leaves_the_others_out() {
-        let mut seed = 5u64;
+    /// `n` points uniform in the cube `[-1, 1]³`, from a linear congruential generator seeded with `seed`.
+    fn random_points(mut seed: u64, n: usize) -> Vec<DVec3> {
         let mut next = || {
             seed = seed.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
             (seed >> 11) as f64 / (1u64 << 53) as f64
         };
-        let pts: Vec<DVec3> = (0..1200).map(|_| DVec3::new(next(), next(), next()) * 2.0 - 1.0).collect();
+        (0..n).map(|_| DVec3::new(next(), next(), next()) * 2.0 - 1.0).collect()
+    }
+
+    /// A grid built over a list of the points is the grid built over all of them with the others left out: the
+    /// same visits, in the same order, in either layout.
+    #[test]
+    fn a_grid_over_listed_points_is_the_grid_that_leaves_the_others_out() {
+        let pts = random_points(5, 1200);
         for every in [2, 3, 61] {
             let listed: Vec<usize> = (0..pts.len()).filter(|k| k % every == 1).collect();
             let (mut all, mut from) = (HashGrid::<u32>::default(), HashGrid::<u32>::default());
@@ -345,12 +349,7 @@ mod tests {
     /// few buckets, so many cells share one), including boxes that reach past the points' cells.
     #[test]
     fn a_query_visits_the_kept_points_of_its_cells_once() {
-        let mut seed = 7u64;
-        let mut next = || {
-            seed = seed.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
-            (seed >> 11) as f64 / (1u64 << 53) as f64
-        };
-        let pts: Vec<DVec3> = (0..2000).map(|_| DVec3::new(next(), next(), next()) * 2.0 - 1.0).collect();
+        let pts = random_points(7, 2000);
         let cell = 0.13;
         let c = |p: DVec3| (p / cell).floor();
         for keep_every in [1, 10, 97] {

@@ -121,9 +121,9 @@ impl<R: Real> ContactScratch<R> {
         // the blocks it lost, three quarters of the edge searches' visits were the ball's own edges. (The
         // bodies' edge counts are the elements', counted when they were formed.)
         let count = &el.edges_per_body;
-        let big = (0..nb.min(count.len()))
-            .max_by_key(|&b| (count[b], std::cmp::Reverse(b)))
-            .filter(|&b| !m.body_self_contact[b]);
+        debug_assert_eq!(count.len(), nb, "elements formed for this model");
+        let big =
+            (0..count.len()).max_by_key(|&b| (count[b], std::cmp::Reverse(b))).filter(|&b| !m.body_self_contact[b]);
         let in_big = |b: u32| big == Some(b as usize);
         // Each grid's candidates, gathered in the passes below (ascending): the grids' builds then visit these
         // alone instead of every element twice (once for each of a kind's two grids). On the fracture scene a
@@ -201,14 +201,15 @@ impl<R: Real> ContactScratch<R> {
         // (radius + l_max)` where they are dense enough, else `radius + l_max`: an edge's query box (its box
         // grown by the reach below) spans at most 5 (or 3) cells a side.
         let (eboxes, centroids) = (&self.eboxes, &self.centroids);
-        // Each kind's two grids (index 1: the big body's), each element in the one of its body.
+        // Each kind's two grids (index 1: the big body's), each element in the one of its body: the candidates
+        // gathered above are already split so and passed their first tests; the grids test the rest.
         let cand = &cands;
         let vertices = |gs: &mut [HashGrid<Box32>; 2]| {
             for (g, of_big) in gs.iter_mut().zip([false, true]) {
                 let ks = cand[of_big as usize].iter().map(|&k| k as usize);
                 g.build_fine_from(cell, cell, ks, |k| {
                     let (v, p) = (parts[k], x(parts[k]));
-                    (in_big(m.particle_body[v as usize]) == of_big && in_grid(v, p)).then(|| (p, Box32::new(p, p)))
+                    in_grid(v, p).then(|| (p, Box32::new(p, p)))
                 });
             }
         };
@@ -218,8 +219,7 @@ impl<R: Real> ContactScratch<R> {
                 g.build_fine_from(EDGE_CELL * (radius + l_max), radius + l_max, ks, |k| {
                     let [lo, hi] = eboxes[k];
                     let b = m.particle_body[edges[k][0] as usize];
-                    (in_big(b) == of_big && any_near(&edges[k]) && worth(b, lo - pad, hi + pad))
-                        .then(|| (0.5 * (lo + hi), Box32::new(lo, hi)))
+                    worth(b, lo - pad, hi + pad).then(|| (0.5 * (lo + hi), Box32::new(lo, hi)))
                 });
             }
         };
@@ -227,9 +227,7 @@ impl<R: Real> ContactScratch<R> {
             if hot.is_some() {
                 for (g, of_big) in gs.iter_mut().zip([false, true]) {
                     let ks = cand[4 + of_big as usize].iter().map(|&k| k as usize);
-                    g.build_fine_from(cell, cell, ks, |k| {
-                        centroids[k].filter(|_| in_big(m.tri_body[el.tris[k] as usize]) == of_big)
-                    });
+                    g.build_fine_from(cell, cell, ks, |k| centroids[k]);
                 }
             }
         };
