@@ -164,8 +164,13 @@ impl<P: Copy + Default> HashGrid<P> {
         for &s in slot {
             self.start[s as usize + 2] += 1;
         }
-        for s in 2..slots + 2 {
-            self.start[s] += self.start[s - 1];
+        // The running sum in a register: summed in place (`start[s] += start[s - 1]`), each cell waited on the
+        // store of the one before (a store-to-load forwarding, ~5 cycles), half of the sort's time on the
+        // folding 128² cloth's dense tables of ~250,000 cells.
+        let mut sum = 0u32;
+        for c in &mut self.start[2..] {
+            sum += *c;
+            *c = sum;
         }
         for (j, ((&k, &pay), &s)) in kept.iter().zip(kept_payload).zip(slot).enumerate() {
             let at = &mut self.start[s as usize + 1];
