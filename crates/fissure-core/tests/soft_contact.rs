@@ -234,6 +234,24 @@ fn kept_candidate_lists_give_the_bits_of_lists_rebuilt_every_step() {
     }
 }
 
+/// A refresh lists every pair a search of every element at the same reference positions finds, on the folding
+/// cloth (`CpuSolver::check_contact_refreshes` searches again after each refresh and panics on a missing pair).
+/// A stronger check of the refreshes than the bits above: a pair a refresh missed changes the bits only if it
+/// comes within reach before the next build (a refresh whose grids left a moved triangle's entry in its old cell,
+/// tried on 2026-12-07, passed the test above and failed this one).
+#[test]
+fn refreshed_lists_hold_every_pair_a_full_search_finds() {
+    let m = folding_cloth();
+    let mut s = m.state();
+    let mut solver = CpuSolver::<f32>::new(SolverConfig { substep_safety: Some(0.8), ..Default::default() });
+    solver.check_contact_refreshes(true);
+    for _ in 0..400 {
+        solver.step(&m, &mut s, 1.0 / 600.0).unwrap();
+    }
+    let st = solver.contact_stats();
+    assert!(st.refreshes > 20, "only {} refreshes in {} steps", st.refreshes, st.steps);
+}
+
 /// The same across fractures: a cloth that tears as it folds onto a ball (hundreds of splits, each of which makes
 /// the solver forget its lists and elements) gives the bits of lists rebuilt at every step, and between the steps
 /// that split, the lists are kept.

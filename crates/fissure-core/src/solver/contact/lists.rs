@@ -56,6 +56,17 @@ impl<R: Real> ContactScratch<R> {
         }
         self.lists(m, self.radius, Some(&hot));
         self.stats.refreshes += 1;
+        if self.check_refreshes {
+            let mut all = self.clone();
+            all.lists(m, self.radius, None);
+            for (kind, listed, found) in [("vertex–triangle", &self.vt, &all.vt), ("edge–edge", &self.ee, &all.ee)]
+            {
+                let listed: std::collections::HashSet<[u32; 2]> = listed.iter().map(|c| c.ids).collect();
+                if let Some(c) = found.iter().find(|c| !listed.contains(&c.ids)) {
+                    panic!("refresh {}: the {kind} pair {:?} is missing", self.stats.refreshes, c.ids);
+                }
+            }
+        }
         true
     }
 

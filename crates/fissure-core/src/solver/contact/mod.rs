@@ -212,6 +212,9 @@ pub(super) struct ContactScratch<R: Real> {
     /// Rebuild the candidate lists at every step (a check of the Verlet list: see
     /// `CpuSolver::rebuild_contact_lists_every_step`).
     rebuild_always: bool,
+    /// After every refresh, search every element again and panic on a pair the refreshed lists miss (a check of
+    /// the refreshes: see `CpuSolver::check_contact_refreshes`).
+    check_refreshes: bool,
 }
 
 impl<R: Real> ContactScratch<R> {
@@ -539,5 +542,13 @@ impl<R: Real> CpuSolver<R> {
     #[doc(hidden)]
     pub fn rebuild_contact_lists_every_step(&mut self, on: bool) {
         self.ct.rebuild_always = on;
+    }
+
+    /// After every refresh of the contact candidate lists, searches every element again at the same reference
+    /// positions and panics if the refreshed lists miss a pair that search finds (a refreshed list may hold
+    /// more: pairs that drifted apart). For tests of the refreshes; slow.
+    #[doc(hidden)]
+    pub fn check_contact_refreshes(&mut self, on: bool) {
+        self.ct.check_refreshes = on;
     }
 }
