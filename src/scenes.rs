@@ -130,8 +130,8 @@ pub fn folding_cloth(n: usize, self_collision: bool) -> Result<ModelBuilder, Mod
 /// Eight coarse balls (5 cm radius, 42 vertices, gas at 500 Pa, each in contact with itself and the others) on the
 /// corners of a 13 cm cube, no gravity, thrown into the middle: the even-numbered ones at `fast` to `2 fast` m/s,
 /// the others at 5 cm/s, their aims jittered by a fixed sequence. A check of contact with slow bodies beside fast
-/// ones (each pair's reach is its own: `fissure_core::contact`'s docs); `tests/contact_scenes.rs` and
-/// `tests/gpu_contact.rs` step it at `fast` = 100 m/s.
+/// ones (each pair's reach is its own: `fissure_core::contact`'s docs); `tests/suite/contact_scenes.rs` and
+/// `tests/gpu/contact.rs` step it at `fast` = 100 m/s.
 pub fn crowd(fast: f64) -> Result<ModelBuilder, ModelError> {
     let mut b = ModelBuilder::new();
     b.gravity(DVec3::ZERO)?;

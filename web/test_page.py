@@ -5,10 +5,10 @@ show the body (the native frame checks' pixel statistics, computed on the canvas
 rate and adapter. On the fracture scene a scripted right click on the ball must puncture it (fracture events)
 and the ball must lose gas through the hole (its `nRT` falls). Its volume is reported, not checked: a third of a
 second after the click the ball is bouncing off the obstacles, and its volume swings by ±2% with the impacts,
-more than the leak changes it in 20 frames (`tests/gpu.rs` checks the shrinking over a longer run). On the ball
+more than the leak changes it in 20 frames (`tests/gpu/parity.rs` checks the shrinking over a longer run). On the ball
 drop, the positions after 600 steps read back from the page must match the native GPU backend's
 (`examples/scene_positions.rs`, lavapipe) within the parity tolerance of
-`tests/gpu.rs`: RMS difference below 1e-4 of the scene's size.
+`tests/gpu/parity.rs`: RMS difference below 1e-4 of the scene's size.
 
 The fracture scene runs with contact between surfaces on the GPU, as the page loads it: the test checks that the
 contact pass ran at every step.

@@ -37,7 +37,7 @@
 //!
 //! Precision: the kernels run in `f32`. Per-step forces agree with the CPU `f32` forces to a few ulps of the
 //! largest force term (the sums run in a different order: CSR order on both, but the CPU sums spring runs in
-//! blocks); trajectories agree to the tolerances stated in `tests/gpu.rs`.
+//! blocks); trajectories agree to the tolerances stated in `tests/gpu/parity.rs`.
 #![warn(missing_docs)]
 
 mod context;

@@ -1,6 +1,6 @@
 """The float64 reference path from Python: `finalize(precision="float64")` and `load_scene(..., precision=...)`
 give float64 models, states, solvers and worlds whose arrays are float64, and their RK4 run of the 32² cloth in
-wind matches the same run in Rust's `Model<f64>` (`tests/python_reference.rs`, which checks the committed
+wind matches the same run in Rust's `Model<f64>` (`tests/suite/python_reference.rs`, which checks the committed
 reference file against itself) to 1e-12 m."""
 
 import pathlib

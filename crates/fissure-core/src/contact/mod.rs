@@ -55,7 +55,7 @@
 //! before. The pass sees distances, not sides, so it treats such a pair like any other: it keeps its elements
 //! `h` apart and caps their moves, whichever side they are on, and the crossing lasts until the motion parts them
 //! (in the fracture scene, a block and the ball's membrane flattened in one plane on the floor stayed crossed to
-//! the end). Once parted, they are kept apart. `tests/contact_scenes.rs` excuses such pairs from the birth step
+//! the end). Once parted, they are kept apart. `tests/suite/contact_scenes.rs` excuses such pairs from the birth step
 //! until they part, and no others. Seen first on 2026-11-27, when a rounding change tried in the pressure's caps
 //! (not kept) moved the fracture scene's trajectory so that a core block broke off where the collapsed ball lay
 //! folded; the scene's own trajectory has none, so the test's excuse is there for trajectories that do.

@@ -21,7 +21,7 @@
 //! triangle outside the grids (appended by fracture), are *loose*: computed by the general kernel and added to
 //! their corners' sums afterwards, in triangle order, so a tearing cloth stays on this pass (a 33 × 17 strip
 //! torn through into five bodies had 18 % of its triangles loose: `a_tearing_cloth_in_wind_keeps_the_grid_wind_pass`
-//! in `tests/tearing.rs`). A model with over a quarter of its triangles loose uses the general pass instead (the
+//! in `tests/suite/tearing.rs`). A model with over a quarter of its triangles loose uses the general pass instead (the
 //! grid kernel still computes its masked triangles, and the loose ones are summed on one thread), as does a model
 //! with gas (its pressure shares ride in the general pass's per-triangle forces).
 

@@ -31,7 +31,7 @@
 //!   stretched it) and the slit its split would open: a split can only cut a triangle from an edge to its
 //!   opposite corner, and the weight makes a crack take the cut most nearly across the load, following the
 //!   perpendicular to the principal stress as closely as the mesh allows (a notched sheet pulled uniaxially
-//!   cracks within 2° of it, `tests/tearing.rs`).
+//!   cracks within 2° of it, `tests/suite/tearing.rs`).
 //!
 //! A crack in a gas body is driven by the pressure; as the gas leaks through the slit the tips' springs fall
 //! below their limit and the crack stops. With [`Trigger::Averaged`] a tip needs a sustained overload: the crack

@@ -92,7 +92,7 @@ pub struct Breakable {
     /// strain `T / (E·h)` on every spring: a sheet pulled uniaxially tears at `T / (E·h)` strain, at a pull of
     /// about `T` per unit width (more where shear and bending springs stiffen the lattice: a grid cloth with
     /// `shear = stiffness / 4` and light bending tears at 1.03 to 1.11 `T` on three meshes and three steps: the
-    /// strip test of `tests/tearing.rs`). The tighter of this and `strain_limit` holds.
+    /// strip test of `tests/suite/tearing.rs`). The tighter of this and `strain_limit` holds.
     pub tear_strength: f64,
 }
 

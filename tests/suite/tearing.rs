@@ -5,7 +5,7 @@
 use fissure::glam::DVec3;
 use fissure::*;
 
-mod common;
+use crate::common;
 
 use common::pulled_sheet;
 

@@ -7,9 +7,9 @@ use fissure::glam::{DVec3, Vec3};
 use fissure::*;
 use fissure_gpu::{GpuConfig, GpuError, GpuSolver};
 
-mod gpu_support;
+use crate::gpu_support;
+use crate::scene_check;
 use gpu_support::{gpu, rms_difference, solver};
-mod scene_check;
 
 /// Two balls (icospheres of `sub` subdivisions: 162 vertices each at 2; no gas, no gravity, at rest) half their
 /// contact thickness apart, the second also in contact with itself with a thickness of about its edge length (so
@@ -280,9 +280,9 @@ fn slow_and_fast_bodies_in_a_crowd_never_cross_on_the_gpu() {
 }
 
 /// The fracture scene on the GPU (its leak and fracture passes on the CPU, the state read back every step), run
-/// with `tests/contact_scenes.rs`'s check at every frame: pieces break away, touch the ball and never cross it or
+/// with `tests/suite/contact_scenes.rs`'s check at every frame: pieces break away, touch the ball and never cross it or
 /// each other. It runs the scene's first 0.75 s of 1.5: all but 5 of its ~200 fracture events come before 0.3 s,
-/// and by 0.75 s the pieces lie on the floor and the obstacles. `tests/contact_scenes.rs` runs the whole scene on
+/// and by 0.75 s the pieces lie on the floor and the obstacles. `tests/suite/contact_scenes.rs` runs the whole scene on
 /// the CPU; here on lavapipe the whole scene took 3 minutes, a third of CI's test time (2026-11-27). (On an H200,
 /// `fissure run scenes/fracture.toml --backend gpu`, whose frames are 1/30 s, capped 29,530 moves over the run
 /// against ~140 on lavapipe and on the CPU; this test run to the scene's end, whose frames are 1/60 s, capped 142

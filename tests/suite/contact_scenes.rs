@@ -1,11 +1,11 @@
 //! The contact scenes run to the end on the CPU, checked at every frame by `scene_check` (no two triangles that
 //! are not neighbours cross): balloons thrown at each other, a cloth folding over itself, and the fracture scene,
-//! whose core blocks must stay out of the ball. `tests/gpu_contact.rs` runs the fracture scene on the GPU with the
+//! whose core blocks must stay out of the ball. `tests/gpu/contact.rs` runs the fracture scene on the GPU with the
 //! same check.
 
 use fissure::*;
 
-mod scene_check;
+use crate::scene_check;
 
 /// Runs `name` on the CPU to its end, checked at every frame; returns the world and the contact pass's totals.
 fn run_checked(name: &str) -> (World<f32>, ContactStats) {

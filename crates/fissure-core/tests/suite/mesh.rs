@@ -1,6 +1,6 @@
 //! Mesh construction, validation errors, generators, OBJ welding and export, topology.
 
-mod common;
+use crate::common;
 
 use fissure_core::glam::DVec3;
 use fissure_core::topology::connected_components;

@@ -1,6 +1,6 @@
 //! The core validates every value it is given: each public constructor and builder call rejects a non-finite or
 //! out-of-range value with an error naming it, and keeps nothing of the bad call. The scene loader and Python
-//! only map these names to their keys and keywords (tested in `tests/validation.rs` and `test_validation.py`).
+//! only map these names to their keys and keywords (tested in `tests/suite/validation.rs` and `test_validation.py`).
 
 use fissure_core::glam::{DVec3, Vec3};
 use fissure_core::*;

@@ -13,7 +13,7 @@
 //! Every test runs on a device with WebGPU's default limits (`wgpu::Limits::default()`: 8 storage buffers per
 //! kernel, 128 MiB per binding), what a browser grants without asking, so the kernels are checked to fit in them.
 //!
-//! Contact between surfaces has its own file, `tests/gpu_contact.rs` (its trajectory tolerance is looser, and says
+//! Contact between surfaces has its own file, `tests/gpu/contact.rs` (its trajectory tolerance is looser, and says
 //! why).
 //!
 //! With `CI` set, a missing adapter fails these tests (CI installs lavapipe); elsewhere they are skipped loudly.
@@ -23,7 +23,7 @@ use fissure::scenes::{self, BallDrop};
 use fissure::*;
 use fissure_gpu::{GpuConfig, GpuContext, GpuError, GpuSolver, MAX_GPU_HANDLES};
 
-mod gpu_support;
+use crate::gpu_support;
 use gpu_support::{gpu, rms_difference, solver};
 
 /// A deterministic pseudo-random number in [-1, 1).

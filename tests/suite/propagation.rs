@@ -3,10 +3,10 @@
 //! apart by handles and random punctured pressurised balls; after every step that fractured anything the mesh
 //! invariants hold (`check_invariants`: manifold, winding, adjacency), no triangle has zero area, the mass is
 //! exactly the mass at the start (in fixed point), and every event names particles that exist. The explicit
-//! fracture sequences of `crates/fissure-core/tests/fracture.rs` check the same after each split one by one;
+//! fracture sequences of `crates/fissure-core/tests/suite/fracture.rs` check the same after each split one by one;
 //! these check them along propagating cracks.
 
-mod common;
+use crate::common;
 
 use fissure::glam::DVec3;
 use fissure::*;

@@ -1,6 +1,6 @@
 //! Closed-form and conservation checks of the CPU engine, each with its tolerance and the reason for it.
 
-mod common;
+use crate::common;
 
 use common::Rng;
 use fissure_core::glam::DVec3;

@@ -7,7 +7,7 @@
 //! `tests/data/stress-seeds.txt` (cases kept because they once found a bug, or cover a corner on purpose). A
 //! failure prints its seed; add it to that file when fixing the bug.
 
-mod common;
+use crate::common;
 
 use common::Rng;
 use fissure_core::glam::{DVec3, Vec3};
@@ -154,7 +154,7 @@ fn run_case(c: &Case) -> Result<(), String> {
 fn seeds() -> Vec<u64> {
     let n: u64 = std::env::var("FISSURE_STRESS_CASES").ok().and_then(|v| v.parse().ok()).unwrap_or(40);
     let mut seeds: Vec<u64> = (0..n).collect();
-    let kept = include_str!("data/stress-seeds.txt");
+    let kept = include_str!("../data/stress-seeds.txt");
     seeds.extend(kept.lines().filter_map(|l| l.split('#').next()).filter_map(|l| l.trim().parse::<u64>().ok()));
     seeds
 }

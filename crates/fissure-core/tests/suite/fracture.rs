@@ -2,7 +2,7 @@
 //! momentum, cracks that open and detach pieces, core blocks, capped volumes, the gas leak, the averaged trigger,
 //! determinism, and no fracture work when nothing can break.
 
-mod common;
+use crate::common;
 
 use common::Rng;
 use fissure_core::glam::DVec3;
@@ -46,7 +46,7 @@ fn model_of(shape: Shape) -> Model<f64> {
             b.add_cloth_grid(7, 6, 0.1, |p| p, &opts).unwrap();
         }
         Shape::Torus => {
-            let text = include_str!("data/torus.obj");
+            let text = include_str!("../data/torus.obj");
             let mesh = Mesh::parse_obj(text, Some(1e-6)).unwrap();
             assert!(mesh.is_closed(), "the seamed torus welds closed");
             let opts = SoftBodyOptions { gas: Gas::Pressure(500.0), fracture: brk, ..Default::default() };
