@@ -31,3 +31,23 @@ pub fn pulled_sheet(nx: usize, width: f64, height: f64, speed: f64, tear: f64) -
     let model = b.finalize::<f64>().unwrap();
     (World::new(model, SolverConfig::default()).with_fracture(FractureConfig::default()), right)
 }
+
+/// A gas-filled ball of radius 0.25 m (`Mesh::icosphere` of `subdivisions`), no gravity, whose membrane (2500 N/m,
+/// bending 50 N/m, 0.4 kg, damping ratio 0.3) tears at `tear_strength` \[N/m\] under `pressure` \[Pa\], with
+/// fracture on (averaged over 5 ms), in `f64`.
+pub fn breakable_ball(subdivisions: u32, pressure: f64, tear_strength: f64) -> World<f64> {
+    let mut b = ModelBuilder::new();
+    b.gravity(DVec3::ZERO).unwrap();
+    let opts = SoftBodyOptions {
+        mass: Mass::Total(0.4),
+        stiffness: Stiffness::Membrane(2500.0),
+        damping: Damping::Ratio(0.3),
+        bending: Some(Stiffness::Membrane(50.0)),
+        gas: Gas::Pressure(pressure),
+        fracture: Some(Breakable { tear_strength, ..Default::default() }),
+        ..Default::default()
+    };
+    b.add_soft_body(&Mesh::icosphere(0.25, subdivisions), &opts).unwrap();
+    let config = FractureConfig { trigger: Trigger::Averaged { window: 0.005 }, ..Default::default() };
+    World::new(b.finalize::<f64>().unwrap(), SolverConfig::default()).with_fracture(config)
+}

@@ -8,7 +8,6 @@
 
 use crate::common;
 
-use fissure::glam::DVec3;
 use fissure::*;
 use proptest::prelude::*;
 
@@ -91,20 +90,7 @@ proptest! {
         puncture in 12usize..162, // where the search below starts (it passes over a vertex that cannot break out)
     ) {
         let r = 0.25;
-        let mut b = ModelBuilder::new();
-        b.gravity(DVec3::ZERO).unwrap();
-        let opts = SoftBodyOptions {
-            mass: Mass::Total(0.4),
-            stiffness: Stiffness::Membrane(2500.0),
-            damping: Damping::Ratio(0.3),
-            bending: Some(Stiffness::Membrane(50.0)),
-            gas: Gas::Pressure(pressure),
-            fracture: Some(Breakable { tear_strength: fraction * pressure * r / 2.0, ..Default::default() }),
-            ..Default::default()
-        };
-        b.add_soft_body(&Mesh::icosphere(r, 2), &opts).unwrap();
-        let config = FractureConfig { trigger: Trigger::Averaged { window: 0.005 }, ..Default::default() };
-        let mut w = World::new(b.finalize::<f64>().unwrap(), SolverConfig::default()).with_fracture(config);
+        let mut w = common::breakable_ball(2, pressure, fraction * pressure * r / 2.0);
         let dt = stable_dt(&mut w, 0.5);
         run_checked(&mut w, 0.05, dt, |_| false)?;
         let v0 = w.model.body_volumes(&w.state)[0];

@@ -297,20 +297,7 @@ fn fracture_scene_shows_cracks_and_chunks_and_collapses() {
 /// (where the stress concentrates), run while the pressure drives them, and stop as the gas leaks out.
 #[test]
 fn a_crack_in_a_leaking_ball_stops_when_the_pressure_falls() {
-    let mut b = ModelBuilder::new();
-    b.gravity(DVec3::ZERO).unwrap();
-    let opts = SoftBodyOptions {
-        mass: Mass::Total(0.4),
-        stiffness: Stiffness::Membrane(2500.0),
-        damping: Damping::Ratio(0.3),
-        bending: Some(Stiffness::Membrane(50.0)),
-        gas: Gas::Pressure(3000.0),
-        fracture: Some(Breakable { tear_strength: 360.0, ..Default::default() }),
-        ..Default::default()
-    };
-    b.add_soft_body(&Mesh::icosphere(0.25, 3), &opts).unwrap();
-    let config = FractureConfig { trigger: Trigger::Averaged { window: 0.005 }, ..Default::default() };
-    let mut w = World::new(b.finalize::<f64>().unwrap(), SolverConfig::default()).with_fracture(config);
+    let mut w = common::breakable_ball(3, 3000.0, 360.0);
     let dt = 2e-4;
     w.advance(0.1, dt).unwrap();
     assert!(w.events.is_empty(), "the inflated ball broke on its own");
