@@ -161,6 +161,24 @@ pub enum StepError {
         /// the implicit integrator, NaN when the backend does not know it.
         stable_dt: f64,
     },
+    /// An explicit step above the stability bound of a model in contact, refused before it is taken (see
+    /// [`crate::stability::ContactStepGuard`]): contact's displacement bound would cap the instability's runaway
+    /// moves, so that instead of blowing up into a [`StepError::NonFinite`] that names the cause, the run would
+    /// go on jittering, wrong and many times slower.
+    #[error(
+        "the time step {dt:e} s is {:.3}× the springs' stability bound {stable_dt:.3e} s, and the model has contact, \
+         which would hide the instability (its displacement bound caps the runaway moves: the run would go on, \
+         jittering and slow, instead of failing): take substeps (the substep safety setting: \
+         `solver.substep_safety` in a scene file, `substep_safety=` in Python, `SolverConfig::substep_safety` in \
+         Rust), take a smaller step, or use the implicit integrator",
+        dt / stable_dt
+    )]
+    AboveStabilityBound {
+        /// The step asked for \[s\].
+        dt: f64,
+        /// The integrator's stability bound for the model \[s\] ([`crate::stability`]).
+        stable_dt: f64,
+    },
     /// The time step is not positive and finite.
     #[error("time step `dt` must be positive and finite, got {0}")]
     BadTimeStep(f64),

@@ -40,6 +40,6 @@ pub use model::{
 pub use parry3d;
 pub use real::{Real, Vector3};
 pub use solver::{CgStats, ContactStats, CpuSolver, Integrator, LocalFuture, Solver, SolverConfig, ready_now};
-pub use stability::{StabilityBound, max_stable_dt_1dof};
+pub use stability::{ContactStepGuard, StabilityBound, max_stable_dt_1dof};
 pub use timers::{Stage, StageTimers};
 pub use wind::{Aero, WindField};

@@ -51,3 +51,16 @@ def test_bad_contact_settings_name_the_argument():
         b.set_contact(h["index"], friction=float("nan"))
     with pytest.raises(ValueError, match="body"):
         b.set_contact(7)
+
+
+def test_a_step_above_the_stability_bound_with_contact_is_refused():
+    # With contact, an unstable explicit step would not blow up (the displacement bound caps its runaway moves)
+    # but run on jittering: it is refused before it is taken, and the state is kept.
+    model, _, _ = two_balloons()
+    state = model.state()
+    before = state.positions.copy()
+    with pytest.raises(ValueError, match="stability bound.*has contact.*substep_safety"):
+        fissure.Solver().step(model, state, 1e-2)
+    assert np.array_equal(state.positions, before) and state.time == 0.0
+    fissure.Solver(substep_safety=0.9).step(model, state, 1e-2)
+    assert state.time == pytest.approx(1e-2) and np.isfinite(state.positions).all()

@@ -69,7 +69,8 @@ pub struct SolverConfig {
     pub check_finite: bool,
     /// Stability guard: when set to `Some(s)` (0 < s ≤ 1), `step(dt)` advances in the fewest equal substeps of at
     /// most `s ×` the explicit stability bound of the model ([`crate::stability::StabilityBound`]). Default
-    /// `None`: the caller's `dt` is used as given. The bound is cached and recomputed when the model's counts
+    /// `None`: the caller's `dt` is used as given (on a model in contact, one above the bound is refused:
+    /// [`crate::stability::ContactStepGuard`]). The bound is cached and recomputed when the model's counts
     /// change or after [`Solver::notify_model_changed`]; call that after editing stiffness or masses in place.
     /// Where springs stretch far (past ~50 %), take `s` ≤ 0.8 with symplectic Euler or velocity Verlet: they
     /// resonate below their linear limit there (the module docs of [`crate::stability`]).
@@ -494,6 +495,7 @@ impl<R: Real> CpuSolver<R> {
         }
         self.config.validate()?;
         self.ensure_sized(m);
+        self.check_contact_step(m, s, dt)?;
         let mut substeps = 1;
         if let Some(safety) = self.config.substep_safety {
             // The fastest mode follows the deformation (a stretched spring stiffens transversally): re-estimated

@@ -200,6 +200,40 @@ fn a_cloth_dropped_on_a_ball_folds_without_crossing_itself() {
     assert!(near > 0, "the cloth never touched itself");
 }
 
+/// An explicit step above the stability bound of a model in contact is refused before it is taken, the state left
+/// as it was: the displacement bound would cap the instability's runaway moves, and the run would go on jittering
+/// instead of blowing up (`scenes/cloth_fold.toml` at 1.31× its bound: 200,000 pairs within reach a step, 0.007×
+/// real time). Under the bound, with the substep guard, or implicitly, the same step runs.
+#[test]
+fn a_step_above_the_stability_bound_with_contact_is_refused_not_hidden() {
+    let m = folding_cloth();
+    let limit = StabilityBound::of(&m).max_dt(Integrator::SymplecticEuler);
+    let start = m.state();
+    let mut s = start.clone();
+    let mut solver = CpuSolver::<f32>::default();
+    let err = solver.step(&m, &mut s, 1.5 * limit).unwrap_err();
+    assert_eq!(err, StepError::AboveStabilityBound { dt: 1.5 * limit, stable_dt: limit });
+    assert!(err.to_string().contains("1.500× the springs' stability bound") && err.to_string().contains("substep"));
+    assert!(s.particle_q == start.particle_q && s.particle_qd == start.particle_qd && s.time == 0.0, "state changed");
+    // Refused again later (the limit is kept), and no step was taken.
+    for _ in 0..20 {
+        solver.step(&m, &mut s, 0.95 * limit).unwrap();
+    }
+    assert!(matches!(solver.step(&m, &mut s, 1.01 * limit), Err(StepError::AboveStabilityBound { .. })));
+    assert_eq!(solver.timers().steps, 20);
+    let mut guarded = CpuSolver::<f32>::new(SolverConfig { substep_safety: Some(0.9), ..Default::default() });
+    let mut implicit = CpuSolver::<f32>::with_integrator(Integrator::ImplicitEuler);
+    let (mut a, mut b) = (start.clone(), start.clone());
+    for _ in 0..20 {
+        guarded.step(&m, &mut a, 1.5 * limit).unwrap();
+        implicit.step(&m, &mut b, 1.5 * limit).unwrap();
+    }
+    assert_eq!(guarded.last_substeps(), 2);
+    // RK4's region is wider: 1.2× symplectic Euler's bound is under its own.
+    let mut rk4 = CpuSolver::<f32>::with_integrator(Integrator::Rk4);
+    rk4.step(&m, &mut start.clone(), 1.2 * limit).unwrap();
+}
+
 /// The candidate lists are kept between steps while no missing pair can have come within reach (Verlet lists,
 /// per-body drift boxes) or refreshed around the particles that drifted: if either ever let a pair through, the
 /// pairs within reach would differ from a list built afresh, and so would the bits. A folding cloth (one body

@@ -125,6 +125,8 @@ pub struct GpuSolver {
     state_stale: bool,
     /// What the last submission found.
     last_report: RunReport,
+    /// Refuses explicit steps above the stability bound of a model in contact (the CPU's guard: see its docs).
+    contact_guard: fissure_core::ContactStepGuard,
     /// The contact pass's counts (see [`GpuSolver::contact_stats`]).
     contact_stats: fissure_core::ContactStats,
     passes: Vec<&'static str>,
@@ -316,6 +318,7 @@ impl GpuSolver {
             time: 0.0,
             state_stale: false,
             last_report: RunReport::default(),
+            contact_guard: Default::default(),
             contact_stats: Default::default(),
             passes: Vec::new(),
             last_upload: 0,

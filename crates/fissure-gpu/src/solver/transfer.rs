@@ -321,6 +321,13 @@ impl GpuSolver {
 impl GpuSolver {
     /// `GpuError::NonFinite` as the CPU's error, with the mesh's stability bound, so the message names the cause
     /// on either backend.
+    /// The CPU's refusal of an explicit step above the stability bound of a model in contact (see
+    /// [`fissure_core::ContactStepGuard`]); the bound is the model's at rest, as [`GpuSolver::step_error`] names.
+    fn check_contact_step(&mut self, model: &Model<f32>, dt: f64) -> Result<(), StepError> {
+        let integrator = self.config.integrator;
+        self.contact_guard.check(model, integrator, dt, || fissure_core::StabilityBound::of(model))
+    }
+
     fn step_error(&self, model: &Model<f32>, e: GpuError) -> StepError {
         match e {
             GpuError::NonFinite { to, dt, .. } => {
@@ -339,6 +346,7 @@ impl Solver<f32> for GpuSolver {
     /// One step, as the CPU solver's: uploads `state`, runs one substep, reads it back. `World` uses
     /// [`Solver::advance`], which keeps the state on the GPU.
     fn step(&mut self, model: &Model<f32>, state: &mut State<f32>, dt: f64) -> Result<(), StepError> {
+        self.check_contact_step(model, dt)?;
         GpuSolver::upload_state(self, state)?;
         self.last_report = self.run(model, dt, 1).map_err(|e| self.step_error(model, e))?;
         self.read_state(state)?;
@@ -369,6 +377,7 @@ impl Solver<f32> for GpuSolver {
         steps: usize,
     ) -> LocalFuture<'a, Result<(), StepError>> {
         Box::pin(async move {
+            self.check_contact_step(model, dt)?;
             if self.state_stale {
                 GpuSolver::upload_state(self, state)?;
             }

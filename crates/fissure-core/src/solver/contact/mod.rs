@@ -215,6 +215,8 @@ pub(super) struct ContactScratch<R: Real> {
     /// After every refresh, search every element again and panic on a pair the refreshed lists miss (a check of
     /// the refreshes: see `CpuSolver::check_contact_refreshes`).
     check_refreshes: bool,
+    /// Refuses explicit steps above the stability bound (kept through fractures: see its docs).
+    guard: crate::stability::ContactStepGuard,
 }
 
 impl<R: Real> ContactScratch<R> {
@@ -325,6 +327,18 @@ impl<T> Scatter<T> {
 }
 
 impl<R: Real> CpuSolver<R> {
+    /// Refuses an explicit step above the stability bound of a model in contact when no substep guard would split
+    /// it (see [`crate::stability::ContactStepGuard`]); the bound is estimated at `s`'s positions.
+    pub(super) fn check_contact_step(&mut self, m: &Model<R>, s: &State<R>, dt: f64) -> Result<(), StepError> {
+        if self.config.substep_safety.is_some() {
+            return Ok(());
+        }
+        let mut guard = self.ct.guard;
+        let checked = guard.check(m, self.config.integrator, dt, || self.bound_at(m, &s.particle_q));
+        self.ct.guard = guard;
+        checked
+    }
+
     /// Keeps surfaces in contact apart (see the [`crate::contact`] module): from the positions `ct.x0` at the
     /// start of the substep to those in `s`, over `dt` \[s\].
     pub(super) fn contact(&mut self, m: &Model<R>, s: &mut State<R>, dt: f64, blown: &AtomicBool) {
