@@ -148,6 +148,26 @@ pub fn triangles_cross(t: [DVec3; 3], u: [DVec3; 3]) -> bool {
         || (0..3).any(|k| segment_meets_triangle(u[k], u[(k + 1) % 3], t[0], t[1], t[2]))
 }
 
+/// The distance between triangles `t` and `u` \[m\]: 0 where they cross, else the least of the distances from
+/// each one's corners to the other and between their edges (where two triangles do not intersect, their closest
+/// points include a corner of one or lie on an edge of each).
+pub fn triangles_distance(t: [DVec3; 3], u: [DVec3; 3]) -> f64 {
+    if triangles_cross(t, u) {
+        return 0.0;
+    }
+    let point = |p: DVec3, c: [DVec3; 3]| {
+        let w = closest_on_triangle(p, c[0], c[1], c[2]);
+        (p - (w[0] * c[0] + w[1] * c[1] + w[2] * c[2])).length()
+    };
+    let corners = (0..3).map(|k| point(t[k], u).min(point(u[k], t)));
+    let edges = (0..9).map(|k| {
+        let (p1, q1, p2, q2) = (t[k / 3], t[(k / 3 + 1) % 3], u[k % 3], u[(k % 3 + 1) % 3]);
+        let (a, b) = closest_on_segments(p1, q1, p2, q2);
+        (p1 + a * (q1 - p1) - (p2 + b * (q2 - p2))).length()
+    });
+    corners.chain(edges).fold(f64::INFINITY, f64::min)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -629,7 +629,7 @@ impl<R: Real> Solver<R> for CpuSolver<R> {
             self.sized_for = None;
             self.bound = None;
             self.f.measured = false;
-            self.ct.invalidate();
+            self.ct.changed(delta);
         }
     }
 

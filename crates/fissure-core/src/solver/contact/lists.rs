@@ -90,7 +90,8 @@ impl<R: Real> ContactScratch<R> {
         let cell = radius.max(l_rms).max(1e-9);
         let parts = &el.particles;
         let edges = &el.edges;
-        let allowed = |a: u32, b: u32| a != b || m.body_self_contact[a as usize];
+        let excused = &self.excused;
+        let allowed = |a: u32, b: u32| (a != b || m.body_self_contact[a as usize]) && !excused.excuses(a, b);
         // Each body's box: an element of a body that does not collide with itself searches only where another
         // body's box reaches, and a body whose box meets no other (and that does not collide with itself) is
         // left out of the grids: away from contacts the build costs one pass over the particles.

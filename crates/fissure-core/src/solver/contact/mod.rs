@@ -2,6 +2,7 @@
 //! Verlet list (`lists.rs`), repulsion and friction impulses by projected Gauss–Seidel, then the displacement
 //! bound.
 
+mod family;
 mod lists;
 mod moves;
 
@@ -217,6 +218,8 @@ pub(super) struct ContactScratch<R: Real> {
     check_refreshes: bool,
     /// Refuses explicit steps above the stability bound (kept through fractures: see its docs).
     guard: crate::stability::ContactStepGuard,
+    /// Pieces born crossing their family, left out of contact with it until they part (see `family`).
+    excused: family::Excused,
 }
 
 impl<R: Real> ContactScratch<R> {
@@ -224,6 +227,12 @@ impl<R: Real> ContactScratch<R> {
     pub fn invalidate(&mut self) {
         self.el = None;
         self.radius = 0.0;
+    }
+
+    /// After a fracture: forgets what the model's change made stale, and notes the pieces it created.
+    pub fn changed(&mut self, delta: &crate::fracture::TopologyDelta) {
+        self.invalidate();
+        self.excused.born(delta);
     }
 
     /// The candidates closer than their reach at `x0`, as pairs with weights and normals. A pair's reach is
@@ -349,6 +358,11 @@ impl<R: Real> CpuSolver<R> {
         let c = &mut self.ct;
         if c.el.is_none() {
             c.el = Some(Elements::of(m));
+            c.radius = 0.0;
+        }
+        // Pieces born crossing their family are left out of contact with it until they part; a pair that parted
+        // is missing from the lists, which are then built again.
+        if c.excused.update(m, &c.x0) {
             c.radius = 0.0;
         }
         let el = c.el.as_ref().expect("just set");
