@@ -303,3 +303,15 @@ fn fracture_scene_with_contact_keeps_pieces_out_of_the_ball_on_the_gpu() {
     assert!(w.model.body_count() > 3, "no pieces broke away");
     assert!(c.pushed_total > 0, "the pieces never touched the ball: {c:?}");
 }
+
+/// A piece born crossing the body it broke from moves through it until they part, then is held apart: the CPU's
+/// check (`scene_check::piece_born_crossing`), on the GPU path (the pairs left out listed after the bodies in
+/// `c_body`, asked whether they parted at every step here, since every step reads the state back).
+#[test]
+fn a_piece_born_crossing_its_parent_moves_through_it_until_parted_on_the_gpu() {
+    let Some(ctx) = gpu() else { return };
+    let m = scene_check::crossed_sheets();
+    let g = solver(&ctx, &m, Integrator::SymplecticEuler);
+    let w = World::with_solver(m, Box::new(g));
+    scene_check::piece_born_crossing(w, |w| w.gpu_solver().unwrap().contact_stats().pushed_total);
+}

@@ -3,7 +3,6 @@
 //! whose core blocks must stay out of the ball. `tests/gpu/contact.rs` runs the fracture scene on the GPU with the
 //! same check.
 
-use fissure::glam::DVec3;
 use fissure::*;
 
 use crate::scene_check;
@@ -69,69 +68,11 @@ fn slow_and_fast_bodies_in_a_crowd_never_cross() {
     assert!(st.capped_total > 0, "the bound never bound");
 }
 
-/// A piece born crossing the body it broke from (which does not collide with itself, so it may cross itself) is
-/// left out of contact with it until no triangle of the one crosses the other, then held apart like any pair.
-/// One body of two sheets crossing at right angles; a core block broken out of the upright sheet where it passes
-/// through the flat one, and sent down and out of its own sheet's plane at 0.5 m/s: it moves freely through the
-/// flat sheet (when its pairs with the sheet were held, at gaps of nothing, the caps kept it where it was born:
-/// the fracture scene's lock), parts from it, and sent back is held below it, never crossing it again.
+/// A piece born crossing the body it broke from moves through it until they part, then is held apart
+/// (`scene_check::piece_born_crossing`; the GPU runs the same check).
 #[test]
 fn a_piece_born_crossing_its_parent_moves_through_it_until_parted_then_is_held_apart() {
-    let (n, sp) = (11usize, 0.02);
-    let grid = Mesh::grid(n, n, sp);
-    let mut pos = Vec::new();
-    for j in 0..n {
-        for i in 0..n {
-            pos.push(DVec3::new(-0.1 + sp * i as f64, 0.0, -0.09 + sp * j as f64));
-        }
-    }
-    for j in 0..n {
-        for i in 0..n {
-            pos.push(DVec3::new(-0.09 + sp * i as f64, -0.105 + sp * j as f64, 0.0));
-        }
-    }
-    let nn = (n * n) as u32;
-    let tris: Vec<[u32; 3]> =
-        grid.triangles().iter().copied().chain(grid.triangles().iter().map(|t| t.map(|k| k + nn))).collect();
-    let mut b = ModelBuilder::new();
-    b.gravity(DVec3::ZERO).unwrap();
-    let sheets = b.add_cloth(&Mesh::new(pos, tris).unwrap(), &ClothOptions::default()).unwrap();
-    b.set_contact(sheets.index, Contact::default()).unwrap();
-    let m: Model<f64> = b.finalize().unwrap();
-    let dt = (0.5 * StabilityBound::of(&m).max_dt(Integrator::SymplecticEuler)).min(1e-4);
-    let mut w = World::new(m, SolverConfig::default());
-    // The upright sheet's vertex (5, 5), at y = -0.005: its one-ring reaches y = 0.015, through the flat sheet.
-    let events = w.break_core(nn as usize + 5 * n + 5).unwrap();
-    let piece = events.iter().find_map(|e| e.new_body).expect("a core block broke out");
-    let crossing = |w: &World<f64>| {
-        let m = &w.model;
-        let body = |t: u32| m.tri_body[t as usize];
-        let flat = |t: u32| m.tri_indices[t as usize].iter().all(|&i| (i as usize) < n * n);
-        (fissure::contact::crossings(m, &w.state.particle_q).into_iter())
-            .filter(|&[t, u]| (body(t) == piece && flat(u)) || (body(u) == piece && flat(t)))
-            .count()
-    };
-    assert!(crossing(&w) > 0, "the block is not born crossing the flat sheet");
-    let block: Vec<usize> = (0..w.model.particle_count()).filter(|&i| w.model.particle_body[i] == piece).collect();
-    let centre = |w: &World<f64>| block.iter().map(|&i| w.state.particle_q[i]).sum::<DVec3>() / block.len() as f64;
-    let send = |w: &mut World<f64>, v: DVec3| block.iter().for_each(|&i| w.state.particle_qd[i] = v);
-    let (c0, v) = (centre(&w), DVec3::new(0.0, -0.5, -0.5) / 2f64.sqrt());
-    send(&mut w, v);
-    let steps = (0.08 / dt).ceil() as usize;
-    for _ in 0..steps {
-        w.step(dt).unwrap();
-    }
-    let moved = centre(&w) - c0;
-    let free = v * (steps as f64 * dt);
-    assert!((moved - free).length() < 0.05 * free.length(), "the block moved {moved} m, not freely ({free} m)");
-    assert_eq!(crossing(&w), 0, "the block has not parted from the flat sheet");
-    // Back up: held below the sheet from now on.
-    let pushed = w.cpu_solver().unwrap().contact_stats().pushed_total;
-    send(&mut w, -v);
-    for step in 0..2 * steps {
-        w.step(dt).unwrap();
-        assert_eq!(crossing(&w), 0, "step {step}: the block crossed the sheet again");
-    }
-    assert!(w.cpu_solver().unwrap().contact_stats().pushed_total > pushed, "the block never touched the sheet");
-    assert!(centre(&w).y < 0.0, "the block is above the sheet");
+    let m = scene_check::crossed_sheets();
+    let w = World::new(m, SolverConfig::default());
+    scene_check::piece_born_crossing(w, |w| w.cpu_solver().unwrap().contact_stats().pushed_total);
 }

@@ -181,7 +181,9 @@ pub(crate) struct Packed {
 pub(crate) struct ContactPack {
     /// Per particle: origin, body, 1 if a corner of a contact triangle, 0.
     pub part: Vec<[u32; 4]>,
-    /// Per body: thickness \[m\] (0: none), friction, 1 if against itself, 0.
+    /// Per body: thickness \[m\] (0: none), friction, 1 if against itself, 0 (body 0's last: the count of
+    /// excused pairs); then the pairs of bodies left out of contact (`fissure_core::contact::family`), each as
+    /// `[low, high, 0, 0]` (body indices are exact in `f32` below 2^24).
     pub body: Vec<[f32; 4]>,
     /// The unique edges of the contact triangles, lower index first, sorted.
     pub edges: Vec<[u32; 2]>,
@@ -226,6 +228,16 @@ impl ContactPack {
         let l_mean = (sum / edges.len().max(1) as f64) as f32;
         let particles = part.iter().filter(|p| p[2] != 0).count();
         ContactPack { part, body, edges, particles, h_max, cell: l_mean.max(2.0 * h_max).max(1e-6) }
+    }
+
+    /// Puts `pairs` after the model's `bodies` entries of `body`, their count in body 0's last component.
+    pub fn excuse(&mut self, bodies: usize, pairs: &[[u32; 2]]) {
+        if bodies == 0 || self.body.len() < bodies {
+            return;
+        }
+        self.body.truncate(bodies);
+        self.body[0][3] = pairs.len() as f32;
+        self.body.extend(pairs.iter().map(|&[a, b]| [a as f32, b as f32, 0.0, 0.0]));
     }
 
     /// The model has contact (a contact body with triangles).

@@ -127,6 +127,9 @@ pub struct GpuSolver {
     last_report: RunReport,
     /// Refuses explicit steps above the stability bound of a model in contact (the CPU's guard: see its docs).
     contact_guard: fissure_core::ContactStepGuard,
+    /// Pieces born crossing their family, left out of contact with it until they part (the CPU's, asked when
+    /// the host holds the current state: see `fissure_core::contact::family`).
+    excused: fissure_core::contact::family::Excused,
     /// The contact pass's counts (see [`GpuSolver::contact_stats`]).
     contact_stats: fissure_core::ContactStats,
     passes: Vec<&'static str>,
@@ -319,6 +322,7 @@ impl GpuSolver {
             state_stale: false,
             last_report: RunReport::default(),
             contact_guard: Default::default(),
+            excused: Default::default(),
             contact_stats: Default::default(),
             passes: Vec::new(),
             last_upload: 0,

@@ -145,7 +145,8 @@ impl GpuSolver {
     /// Re-packs `m` and uploads what differs from the GPU copy (block-wise; after a fracture event that is a few
     /// blocks per array). If particles were added, the state must be uploaded next ([`GpuSolver::upload_state`]).
     pub fn sync_model(&mut self, m: &Model<f32>) {
-        let p = Packed::new(m, self.packed.tri_offset);
+        let mut p = Packed::new(m, self.packed.tri_offset);
+        p.contact.excuse(m.body_count(), self.excused.pairs());
         self.last_repacked = 2 * p.particles.len() + p.adj.len() + p.springs.len() + p.tris.len();
         let (d, q) = (&self.device, &self.queue);
         let mut realloc = false;
@@ -261,6 +262,7 @@ impl GpuSolver {
             // The contact elements follow the triangles, bodies and origins: re-packed whole (one pass over the
             // triangles), uploaded where they differ.
             p.contact = layout::ContactPack::new(m);
+            p.contact.excuse(m.body_count(), self.excused.pairs());
             add(self.c_part.sync(d, q, &p.contact.part));
             add(self.c_body.sync(d, q, &p.contact.body));
             add(self.c_edges.sync(d, q, &p.contact.edges));
@@ -321,6 +323,20 @@ impl GpuSolver {
 impl GpuSolver {
     /// `GpuError::NonFinite` as the CPU's error, with the mesh's stability bound, so the message names the cause
     /// on either backend.
+    /// Asks the pieces born crossing their family whether they have parted, at `state` (the current state: the
+    /// host's copy must be), and uploads the pairs left out of contact when they changed (see
+    /// [`fissure_core::contact::family`]: the CPU asks at every pass, the GPU only where the host holds the
+    /// state, so a pair may stay left out a little longer here).
+    fn update_excused(&mut self, model: &Model<f32>, state: &State<f32>) {
+        if !model.has_contact() || !self.excused.update(model, &state.particle_q) {
+            return;
+        }
+        self.packed.contact.excuse(model.body_count(), self.excused.pairs());
+        if self.c_body.sync(&self.device, &self.queue, &self.packed.contact.body).0 {
+            self.rebind();
+        }
+    }
+
     /// The CPU's refusal of an explicit step above the stability bound of a model in contact (see
     /// [`fissure_core::ContactStepGuard`]); the bound is the model's at rest, as [`GpuSolver::step_error`] names.
     fn check_contact_step(&mut self, model: &Model<f32>, dt: f64) -> Result<(), StepError> {
@@ -347,6 +363,7 @@ impl Solver<f32> for GpuSolver {
     /// [`Solver::advance`], which keeps the state on the GPU.
     fn step(&mut self, model: &Model<f32>, state: &mut State<f32>, dt: f64) -> Result<(), StepError> {
         self.check_contact_step(model, dt)?;
+        self.update_excused(model, state);
         GpuSolver::upload_state(self, state)?;
         self.last_report = self.run(model, dt, 1).map_err(|e| self.step_error(model, e))?;
         self.read_state(state)?;
@@ -378,6 +395,9 @@ impl Solver<f32> for GpuSolver {
     ) -> LocalFuture<'a, Result<(), StepError>> {
         Box::pin(async move {
             self.check_contact_step(model, dt)?;
+            if state.time == self.time && state.particle_q.len() == self.particle_count() {
+                self.update_excused(model, state);
+            }
             if self.state_stale {
                 GpuSolver::upload_state(self, state)?;
             }
@@ -408,6 +428,7 @@ impl Solver<f32> for GpuSolver {
                 self.sync_gas(model);
             }
         } else {
+            self.excused.born(delta);
             self.sync_delta(model, delta);
         }
     }

@@ -2,7 +2,6 @@
 //! Verlet list (`lists.rs`), repulsion and friction impulses by projected Gauss–Seidel, then the displacement
 //! bound.
 
-mod family;
 mod lists;
 mod moves;
 
@@ -219,7 +218,7 @@ pub(super) struct ContactScratch<R: Real> {
     /// Refuses explicit steps above the stability bound (kept through fractures: see its docs).
     guard: crate::stability::ContactStepGuard,
     /// Pieces born crossing their family, left out of contact with it until they part (see `family`).
-    excused: family::Excused,
+    excused: crate::contact::family::Excused,
 }
 
 impl<R: Real> ContactScratch<R> {

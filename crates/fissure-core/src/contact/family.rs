@@ -1,5 +1,6 @@
-//! Pieces born crossing their family, left out of contact with it until they part (see the `contact` module's
-//! docs, "born crossing").
+//! Pieces born crossing their family, left out of contact with it until they part (see the [`crate::contact`]
+//! module's docs). Both solvers keep an [`Excused`]: the CPU asks it at every pass, the GPU whenever the host holds
+//! the current state (after every step that reads it back, and at the first step after a fracture pass).
 //!
 //! A body without self-contact may cross itself (the fracture scene's torn ball lies flattened on the floor in
 //! layers), and a piece that breaks off where it does is born crossing the body it came from. The pass sees
@@ -20,7 +21,7 @@ use crate::real::Real;
 
 /// The pairs of bodies left out of contact, and what finding them needs.
 #[derive(Clone, Debug, Default)]
-pub(super) struct Excused {
+pub struct Excused {
     /// Each body's family: the body of the model as built that it broke from, through any pieces between
     /// (itself for such a body); grown as bodies appear.
     family: Vec<u32>,
@@ -36,6 +37,16 @@ impl Excused {
         self.newborn.extend(delta.events.iter().filter_map(|e| e.new_body.map(|b| [b, e.body])));
     }
 
+    /// The pairs of bodies left out of contact with each other, `[low, high]`.
+    pub fn pairs(&self) -> &[[u32; 2]] {
+        &self.pairs
+    }
+
+    /// Whether a piece was born since the last [`Excused::update`] (which must then see the current state).
+    pub fn pending(&self) -> bool {
+        !self.newborn.is_empty()
+    }
+
     /// Whether bodies `a` and `b` are left out of contact with each other.
     #[inline]
     pub fn excuses(&self, a: u32, b: u32) -> bool {
@@ -43,8 +54,9 @@ impl Excused {
     }
 
     /// At a pass, with the positions `x` at the substep's start: excuses each piece born since the last pass
-    /// from the members of its family it crosses, and forgets the pairs that have parted. True when a pair was
-    /// forgotten: its element pairs are missing from the candidate lists, which must be built again.
+    /// from the members of its family it crosses, and forgets the pairs that have parted. True when the pairs
+    /// changed (on the CPU a forgotten pair's element pairs are missing from the candidate lists, which must then
+    /// be built again; the GPU uploads the pairs).
     pub fn update<R: Real>(&mut self, m: &Model<R>, x: &[R::V]) -> bool {
         let n = m.body_count();
         let known = self.family.len().min(n);
@@ -60,6 +72,7 @@ impl Excused {
         if newborn.is_empty() && self.pairs.is_empty() {
             return false;
         }
+        let before = self.pairs.clone();
         for &[p, _] in &newborn {
             if p as usize >= n || m.body_contact_thickness[p as usize] <= R::ZERO {
                 continue;
@@ -75,9 +88,8 @@ impl Excused {
         }
         // Parted: no triangle of the one within a thickness of the other, so that contact takes the pair up
         // outside its thickness (inside it, the push-out would send the piece off at up to `RELAX h / PUSH_TIME`).
-        let before = self.pairs.len();
         let h = |b: u32| m.body_contact_thickness[b as usize].to_f64();
         self.pairs.retain(|&[a, b]| (b as usize) < n && bodies_within(m, x, a, b, h(a).max(h(b))));
-        self.pairs.len() < before
+        self.pairs != before
     }
 }
