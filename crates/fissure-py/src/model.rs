@@ -262,7 +262,10 @@ impl Solver {
         Ok(Solver { inner: Prec::F32(fissure::CpuSolver::new(c)) })
     }
 
-    /// Advances `state` by `steps` steps of `dt` \[s\], with the GIL released.
+    /// Advances `state` by `steps` steps of `dt` \[s\], with the GIL released. Raises `ValueError` when a step
+    /// fails (a blow-up, named with the springs' stability bound) or is refused before it is taken: on a model
+    /// with contact, an explicit `dt` above that bound (contact would hide the instability; pass
+    /// `substep_safety`).
     #[pyo3(signature = (model, state, dt, steps = 1))]
     fn step(&mut self, py: Python<'_>, model: &Model, state: &mut State, dt: f64, steps: usize) -> PyResult<()> {
         model.check(state)?;
