@@ -5,8 +5,8 @@
 //! One more exception, which contact cannot avoid: a body without self-contact may cross itself (the fracture
 //! scene's torn ball, flattened on the floor, lies in layers in one plane), and a piece that breaks off where it
 //! does starts out crossing its parent. The solver then leaves the two bodies out of contact with each other
-//! until no triangle of one comes within a thickness of the other (`fissure::contact::bodies_within`; the core's
-//! `solver::contact::family`), and so does this check: the pairs of bodies that cross at the step a piece is born
+//! until no triangle of one comes within a thickness of the other (`fissure::contact::bodies_within`;
+//! `fissure::contact::family`), and so does this check: the pairs of bodies that cross at the step a piece is born
 //! (the piece and a body of its family: the body it broke from, pieces of that body born before or in the same
 //! step) are recorded then, and their crossings are excused until the two are that far apart at a frame; from
 //! then on the two are held like any other. A crossing between a piece and anything else (other bodies, a member

@@ -42,11 +42,6 @@ impl Excused {
         &self.pairs
     }
 
-    /// Whether a piece was born since the last [`Excused::update`] (which must then see the current state).
-    pub fn pending(&self) -> bool {
-        !self.newborn.is_empty()
-    }
-
     /// Whether bodies `a` and `b` are left out of contact with each other.
     #[inline]
     pub fn excuses(&self, a: u32, b: u32) -> bool {
@@ -72,7 +67,7 @@ impl Excused {
         if newborn.is_empty() && self.pairs.is_empty() {
             return false;
         }
-        let before = self.pairs.clone();
+        let mut added = false;
         for &[p, _] in &newborn {
             if p as usize >= n || m.body_contact_thickness[p as usize] <= R::ZERO {
                 continue;
@@ -82,14 +77,15 @@ impl Excused {
                     let pair = [p.min(q), p.max(q)];
                     if !self.pairs.contains(&pair) {
                         self.pairs.push(pair);
+                        added = true;
                     }
                 }
             }
         }
         // Parted: no triangle of the one within a thickness of the other, so that contact takes the pair up
         // outside its thickness (inside it, the push-out would send the piece off at up to `RELAX h / PUSH_TIME`).
-        let h = |b: u32| m.body_contact_thickness[b as usize].to_f64();
+        let (h, before) = (|b: u32| m.body_contact_thickness[b as usize].to_f64(), self.pairs.len());
         self.pairs.retain(|&[a, b]| (b as usize) < n && bodies_within(m, x, a, b, h(a).max(h(b))));
-        self.pairs != before
+        added || self.pairs.len() < before
     }
 }

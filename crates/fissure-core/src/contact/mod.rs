@@ -222,29 +222,42 @@ pub(crate) fn same_origin<R: Real>(m: &Model<R>, a: u32, b: u32) -> bool {
 /// over the ball's triangles. What decides when a piece born crossing its family has parted from it (see the
 /// module docs); `gap = 0` asks only whether they cross.
 pub fn bodies_within<R: Real>(m: &Model<R>, q: &[R::V], a: u32, b: u32, gap: f64) -> bool {
-    let of = |body: u32| (0..m.tri_count() as u32).filter(move |&t| m.tri_body[t as usize] == body);
-    let (small, large) = if of(a).count() <= of(b).count() { (a, b) } else { (b, a) };
+    let (mut of_a, mut of_b) = (Vec::new(), Vec::new());
+    for (t, &body) in m.tri_body.iter().enumerate() {
+        if body == a {
+            of_a.push(t as u32);
+        } else if body == b {
+            of_b.push(t as u32);
+        }
+    }
+    let (small, large) = if of_a.len() <= of_b.len() { (of_a, of_b) } else { (of_b, of_a) };
     let corners = |t: u32| m.tri_indices[t as usize].map(|i| q[i as usize].to_dvec3());
     let bounds = |c: [DVec3; 3]| (c[0].min(c[1]).min(c[2]) - gap, c[0].max(c[1]).max(c[2]) + gap);
     let small: Vec<(u32, [DVec3; 3], (DVec3, DVec3))> =
-        of(small).map(|t| (t, corners(t), bounds(corners(t)))).collect();
+        small.into_iter().map(|t| (t, corners(t), bounds(corners(t)))).collect();
     let Some(all) = small.iter().map(|s| s.2).reduce(|p, r| (p.0.min(r.0), p.1.max(r.1))) else {
         return false;
     };
-    of(large).any(|u| {
+    large.into_iter().any(|u| {
         let d = corners(u);
         let (lo, hi) = (d[0].min(d[1]).min(d[2]), d[0].max(d[1]).max(d[2]));
         if lo.cmpgt(all.1).any() || hi.cmplt(all.0).any() {
             return false;
         }
-        let uv = m.tri_indices[u as usize];
         small.iter().any(|&(t, c, (clo, chi))| {
             lo.cmple(chi).all()
                 && clo.cmple(hi).all()
-                && !m.tri_indices[t as usize].iter().any(|&i| uv.iter().any(|&j| same_origin(m, i, j)))
+                && !neighbours(m, t, u)
                 && (if gap > 0.0 { geometry::triangles_distance(c, d) <= gap } else { geometry::triangles_cross(c, d) })
         })
     })
+}
+
+/// True if triangles `t` and `u` share a vertex or a vertex's origin (neighbours, or neighbours across a split):
+/// never a crossing.
+fn neighbours<R: Real>(m: &Model<R>, t: u32, u: u32) -> bool {
+    let uv = m.tri_indices[u as usize];
+    m.tri_indices[t as usize].iter().any(|&a| uv.iter().any(|&b| same_origin(m, a, b)))
 }
 
 /// Default thickness of a body with these triangles \[m\]: [`THICKNESS_PER_EDGE`] × mean edge length.
@@ -282,14 +295,12 @@ pub fn crossings<R: Real>(m: &Model<R>, q: &[R::V]) -> Vec<[u32; 2]> {
     for t in 0..nt {
         let c = corners(t);
         let (lo, hi) = (c[0].min(c[1]).min(c[2]), c[0].max(c[1]).max(c[2]));
-        let tv = m.tri_indices[t];
         grid.query(lo - l_max, hi + l_max, |u, _| {
             let u = u as usize;
             if u <= t {
                 return;
             }
-            let uv = m.tri_indices[u];
-            if tv.iter().any(|&a| uv.iter().any(|&b| same_origin(m, a, b))) {
+            if neighbours(m, t as u32, u as u32) {
                 return;
             }
             let d = corners(u);

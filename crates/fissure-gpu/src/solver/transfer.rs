@@ -321,8 +321,6 @@ impl GpuSolver {
 }
 
 impl GpuSolver {
-    /// `GpuError::NonFinite` as the CPU's error, with the mesh's stability bound, so the message names the cause
-    /// on either backend.
     /// Asks the pieces born crossing their family whether they have parted, at `state` (the current state: the
     /// host's copy must be), and uploads the pairs left out of contact when they changed (see
     /// [`fissure_core::contact::family`]: the CPU asks at every pass, the GPU only where the host holds the
@@ -344,6 +342,8 @@ impl GpuSolver {
         self.contact_guard.check(model, integrator, dt, || fissure_core::StabilityBound::of(model))
     }
 
+    /// `GpuError::NonFinite` as the CPU's error, with the mesh's stability bound, so the message names the cause
+    /// on either backend.
     fn step_error(&self, model: &Model<f32>, e: GpuError) -> StepError {
         match e {
             GpuError::NonFinite { to, dt, .. } => {
