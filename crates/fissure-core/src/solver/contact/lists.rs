@@ -2,6 +2,7 @@
 //! grids over every element, or refreshed around the particles that drifted.
 
 use super::*;
+use std::sync::Mutex;
 
 /// Candidate searches per element cost a grid query (~0.2–1 µs): parallel from this many elements. Measured
 /// (2026-11-23): from 1,024, the fracture scene's builds woke the pool for ~1,400 triangles and spent more in
@@ -251,6 +252,19 @@ impl<R: Real> ContactScratch<R> {
         if parallel {
             #[cfg(feature = "parallel")]
             rayon::join(|| vertices(grid), || rayon::join(|| midpoints(egrid), || tri_centroids(tgrid)));
+        } else if crate::par::teamed() && parts.len() + edges.len() >= PAR_BUILD {
+            // On the team, one grid a piece, the largest (the edges') first: the other thread builds the
+            // vertices' and then the centroids'. Each grid is built whole by one thread, so the same grids. (The
+            // pool's `join` above is not free while the team spins, so on two threads the grids were built one
+            // after another: 2.4 of a refresh's 14.6 ms on the folding 128² cloth. With the merges below on the
+            // team as well, its contact 4.06–4.13 → 3.51–3.81 ms a substep: `cargo bench --bench contact`, two
+            // threads, three alternated pairs, an AMD EPYC Zen 4 host, 2026-12-07.)
+            let (grid, egrid, tgrid) = (Mutex::new(grid), Mutex::new(egrid), Mutex::new(tgrid));
+            crate::par::exec(false, if hot.is_some() { 3 } else { 2 }, &|k| match k {
+                0 => midpoints(&mut egrid.lock().expect("one piece each")),
+                1 => vertices(&mut grid.lock().expect("one piece each")),
+                _ => tri_centroids(&mut tgrid.lock().expect("one piece each")),
+            });
         } else {
             vertices(grid);
             midpoints(egrid);
@@ -411,13 +425,31 @@ impl<R: Real> ContactScratch<R> {
         if hot.is_some() {
             // Old pairs of the searched elements out, their new pairs in, in index order: (t, v) and (e, f).
             // Each list's order as one integer: the new pairs sort ~2× faster by it than as arrays or tuples.
+            // The two lists are independent: on the team, one a piece.
             let vt_key = |c: &Candidate| (c.ids[1] as u64) << 32 | c.ids[0] as u64;
             let ee_key = |c: &Candidate| (c.ids[0] as u64) << 32 | c.ids[1] as u64;
-            vt.sort_unstable_by_key(vt_key);
             let keep = |c: &Candidate| !tmask[c.ids[1] as usize] && !is_hot[c.ids[0] as usize];
-            merge_sorted(&mut self.vt, vt, keep, vt_key);
-            ee.sort_unstable_by_key(ee_key);
-            merge_sorted(&mut self.ee, ee, |c| !emask[c.ids[0] as usize] && !emask[c.ids[1] as usize], ee_key);
+            let ee_keep = |c: &Candidate| !emask[c.ids[0] as usize] && !emask[c.ids[1] as usize];
+            let merge_vt = |list: &mut Vec<Candidate>, mut new: Vec<Candidate>| {
+                new.sort_unstable_by_key(vt_key);
+                merge_sorted(list, new, keep, vt_key);
+            };
+            let merge_ee = |list: &mut Vec<Candidate>, mut new: Vec<Candidate>| {
+                new.sort_unstable_by_key(ee_key);
+                merge_sorted(list, new, ee_keep, ee_key);
+            };
+            if crate::par::teamed() && self.vt.len() + self.ee.len() >= PAR_BUILD {
+                let work = [Mutex::new((&mut self.vt, vt)), Mutex::new((&mut self.ee, ee))];
+                crate::par::exec(false, 2, &|k| {
+                    let mut w = work[k].lock().expect("one piece each");
+                    let (list, new) = &mut *w;
+                    let new = std::mem::take(new);
+                    if k == 0 { merge_vt(list, new) } else { merge_ee(list, new) }
+                });
+            } else {
+                merge_vt(&mut self.vt, vt);
+                merge_ee(&mut self.ee, ee);
+            }
         } else {
             self.vt = vt;
             self.ee = ee;
