@@ -244,32 +244,19 @@ impl<R: Real> ContactScratch<R> {
                 }
             }
         };
-        let (grid, egrid, tgrid) = (&mut self.grid, &mut self.egrid, &mut self.tgrid);
-        #[cfg(feature = "parallel")]
-        let parallel = parts.len() + edges.len() >= PAR_BUILD && crate::par::rayon_free();
-        #[cfg(not(feature = "parallel"))]
-        let parallel = false;
-        if parallel {
-            #[cfg(feature = "parallel")]
-            rayon::join(|| vertices(grid), || rayon::join(|| midpoints(egrid), || tri_centroids(tgrid)));
-        } else if crate::par::teamed() && parts.len() + edges.len() >= PAR_BUILD {
-            // On the team, one grid a piece, the largest (the edges') first: the other thread builds the
-            // vertices' and then the centroids'. Each grid is built whole by one thread, so the same grids. (The
-            // pool's `join` above is not free while the team spins, so on two threads the grids were built one
-            // after another: 2.4 of a refresh's 14.6 ms on the folding 128² cloth. With the merges below on the
-            // team as well, its contact 4.06–4.13 → 3.51–3.81 ms a substep: `cargo bench --bench contact`, two
-            // threads, three alternated pairs, an AMD EPYC Zen 4 host, 2026-12-07.)
-            let (grid, egrid, tgrid) = (Mutex::new(grid), Mutex::new(egrid), Mutex::new(tgrid));
-            crate::par::exec(false, if hot.is_some() { 3 } else { 2 }, &|k| match k {
-                0 => midpoints(&mut egrid.lock().expect("one piece each")),
-                1 => vertices(&mut grid.lock().expect("one piece each")),
-                _ => tri_centroids(&mut tgrid.lock().expect("one piece each")),
-            });
-        } else {
-            vertices(grid);
-            midpoints(egrid);
-            tri_centroids(tgrid);
-        }
+        // One grid a piece, the largest (the edges') first, each built whole by one thread, so the same grids
+        // whichever way the pieces run (see [`pieces`]). On the team the other thread builds the vertices' and then
+        // the centroids'. (Under `rayon::join`, taken only when the pool was free, the grids were built one after
+        // another while the team spun: 2.4 of a refresh's 14.6 ms on the folding 128² cloth on two threads. With
+        // the merges below run the same way, its contact 4.06–4.13 → 3.51–3.81 ms a substep: `cargo bench --bench
+        // contact`, two threads, three alternated pairs, an AMD EPYC Zen 4 host, 2026-12-07.)
+        let (grid, egrid, tgrid) =
+            (Mutex::new(&mut self.grid), Mutex::new(&mut self.egrid), Mutex::new(&mut self.tgrid));
+        pieces(parts.len() + edges.len() >= PAR_BUILD, if hot.is_some() { 3 } else { 2 }, &|k| match k {
+            0 => midpoints(&mut egrid.lock().expect("one piece each")),
+            1 => vertices(&mut grid.lock().expect("one piece each")),
+            _ => tri_centroids(&mut tgrid.lock().expect("one piece each")),
+        });
         // A refresh searches again from the triangles with a hot corner and the edges with a hot end, and from
         // each hot vertex the triangles (without a hot corner) whose centroids are within `radius + c_reach` of it
         // (every triangle with a point within `radius` of it): cheaper than searching from every triangle near a
@@ -438,18 +425,14 @@ impl<R: Real> ContactScratch<R> {
                 new.sort_unstable_by_key(ee_key);
                 merge_sorted(list, new, ee_keep, ee_key);
             };
-            if crate::par::teamed() && self.vt.len() + self.ee.len() >= PAR_BUILD {
-                let work = [Mutex::new((&mut self.vt, vt)), Mutex::new((&mut self.ee, ee))];
-                crate::par::exec(false, 2, &|k| {
-                    let mut w = work[k].lock().expect("one piece each");
-                    let (list, new) = &mut *w;
-                    let new = std::mem::take(new);
-                    if k == 0 { merge_vt(list, new) } else { merge_ee(list, new) }
-                });
-            } else {
-                merge_vt(&mut self.vt, vt);
-                merge_ee(&mut self.ee, ee);
-            }
+            let big = self.vt.len() + self.ee.len() >= PAR_BUILD;
+            let work = [Mutex::new((&mut self.vt, vt)), Mutex::new((&mut self.ee, ee))];
+            pieces(big, 2, &|k| {
+                let mut w = work[k].lock().expect("one piece each");
+                let (list, new) = &mut *w;
+                let new = std::mem::take(new);
+                if k == 0 { merge_vt(list, new) } else { merge_ee(list, new) }
+            });
         } else {
             self.vt = vt;
             self.ee = ee;
@@ -485,6 +468,16 @@ fn search(
     if !from_big {
         big.query_where(lo, hi, keep, |i, _| f(i));
     }
+}
+
+/// Runs `f(0)` … `f(n - 1)`, each once: when `big`, on the team if this thread holds it, else on rayon's pool if it
+/// is free (see [`crate::par::exec`]); otherwise here, in order. For pieces whose results are each their own.
+fn pieces(big: bool, n: usize, f: &(dyn Fn(usize) + Sync)) {
+    #[cfg(feature = "parallel")]
+    let pool = crate::par::rayon_free();
+    #[cfg(not(feature = "parallel"))]
+    let pool = false;
+    if big { crate::par::exec(pool, n, f) } else { (0..n).for_each(f) }
 }
 
 /// Merges `new` into the entries of `list` that `keep` keeps, both sorted by `key` (one pass instead of a
