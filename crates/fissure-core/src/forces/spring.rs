@@ -34,14 +34,19 @@ impl<R: Real> ForceScratch<R> {
 
     /// [`ForceScratch::springs`] (per-spring kernel) and the surface pass's crosses and volume partials
     /// (`forces::cross_chunk`) in one hand-over to the team. The triangle chunks and the spring pieces are taken
-    /// in the order of where they start in their arrays ([`region_order`]): the caller claims from the front and
-    /// a helper from the end, so on a mesh numbered for locality (springs and triangles follow the particles:
-    /// `Mesh::renumbered_for_locality`, which `Mesh::icosphere` applies) each core forms the crosses and spring
-    /// forces of the particles whose gather it then takes, and the gather reads what its own core wrote. (Before,
-    /// every triangle chunk came first, all on the caller's core; on a mesh without locality either way half of
-    /// the gather's reads fall on the other core's lines.) A 642-vertex ball's 1,280 triangles are one chunk of the
-    /// volume sum: the other thread runs springs meanwhile. The same pieces and chunks as the two passes apart:
-    /// the same bits. The caps over a gas body's openings are one more piece, last (a helper takes it first).
+    /// in the order of where their middles lie in their arrays ([`region_order`]): the caller claims from the
+    /// front and a helper from the end, so on a mesh numbered for locality (springs and triangles follow the
+    /// particles: `Mesh::renumbered_for_locality`, which `Mesh::icosphere` applies) each core forms the crosses and
+    /// spring forces of the particles whose gather it then takes, and the gather reads what its own core wrote.
+    /// (Before, every triangle chunk came first, all on the caller's core; on a mesh without locality either way
+    /// half of the gather's reads fall on the other core's lines.) By middles, not starts: a chunk of 2,048
+    /// triangles spans two fifths of the 2,562-vertex ball, and ordered by its start the ball's middle chunk (its
+    /// particles ~40-80 % of the way through, mostly the helper's) went to the caller, where it took 7.3-8.6 µs
+    /// against 3.2-3.5 for the first chunk's same work (pieces timed, 2026-12-07, `benches/RESULTS.md` (59),
+    /// (60)); by middles the ball's step went 27.9-28.9 → 25.6-26.2 µs on the Zen 4 development VM. A 642-vertex
+    /// ball's 1,280 triangles are one chunk of the volume sum, taken first: the other thread runs springs
+    /// meanwhile. The same pieces and chunks as the two passes apart: the same bits. The caps over a gas body's
+    /// openings are one more piece, last (a helper takes it first).
     /// [`ForceScratch::surface`] is then told to skip them (`crosses_formed`).
     pub fn springs_and_crosses(&mut self, m: &Model<R>, q: &[R::V], qd: &[R::V]) {
         match m.damping_model {
@@ -162,16 +167,21 @@ impl<R: Real> ForceScratch<R> {
 }
 
 /// The pieces of two passes run as one: `nt` triangles in chunks of `chunk` (numbered `0 .. nc`) and `ns` springs in
-/// pieces of `size` (numbered `nc ..`), merged by where each starts as a fraction of its array (a triangle chunk
-/// first on a tie), into `order`. On a mesh numbered for locality a fraction of the triangles and the same
-/// fraction of the springs touch about the same particles.
+/// pieces of `size` (numbered `nc ..`), merged by where each one's middle lies as a fraction of its array (a
+/// triangle chunk first on a tie), into `order`. On a mesh numbered for locality a fraction of the triangles and
+/// the same fraction of the springs touch about the same particles.
 fn region_order(order: &mut Vec<u32>, nt: usize, chunk: usize, ns: usize, size: usize) {
     let (nc, np) = (nt.div_ceil(chunk), ns.div_ceil(size));
+    // Twice a piece's middle: its start plus its end (the last piece may be short).
+    let mid2 = |k: usize, len: usize, n: usize| (2 * k * len + len.min(n - k * len)) as u128;
+    // A chunk of at least half the triangles is placed by its start: it touches particles all over the mesh, and
+    // a large piece taken first (the 642-vertex ball's one chunk) lets the other thread take the small ones.
+    let tri2 = |c: usize| if 2 * chunk >= nt { (2 * c * chunk) as u128 } else { mid2(c, chunk, nt) };
     order.clear();
     let (mut c, mut p) = (0, 0);
     while c < nc || p < np {
-        // `c chunk / nt <= p size / ns`, cross-multiplied (exact in u128).
-        let tri_first = p == np || (c < nc && (c * chunk) as u128 * ns as u128 <= (p * size) as u128 * nt as u128);
+        // `mid(c) / nt <= mid(p) / ns`, cross-multiplied (exact in u128).
+        let tri_first = p == np || (c < nc && tri2(c) * ns as u128 <= mid2(p, size, ns) * nt as u128);
         if tri_first {
             order.push(c as u32);
             c += 1;
@@ -628,17 +638,25 @@ mod tests {
             let mut seen = order.clone();
             seen.sort_unstable();
             assert_eq!(seen, (0..(nc + np) as u32).collect::<Vec<_>>(), "{nt} {ns}: a permutation");
-            let start = |k: u32| {
+            // Each piece's middle as a fraction of its array; a chunk of half the triangles or more, its start.
+            let mid = |k: u32| {
                 let k = k as usize;
-                if k < nc { (k * chunk) as f64 / nt as f64 } else { ((k - nc) * size) as f64 / ns as f64 }
+                let whole = k < nc && 2 * chunk >= nt;
+                let (k, len, n) = if k < nc { (k, chunk, nt) } else { (k - nc, size, ns) };
+                (k * len) as f64 / n as f64 + if whole { 0.0 } else { (len.min(n - k * len)) as f64 / n as f64 / 2.0 }
             };
-            assert!(order.windows(2).all(|w| start(w[0]) <= start(w[1])), "{nt} {ns}: by start: {order:?}");
+            assert!(order.windows(2).all(|w| mid(w[0]) <= mid(w[1])), "{nt} {ns}: by middle: {order:?}");
             let tris: Vec<u32> = order.iter().copied().filter(|&k| (k as usize) < nc).collect();
             assert_eq!(tris, (0..nc as u32).collect::<Vec<_>>());
         }
-        // The 2,562-vertex ball's three triangle chunks lead their regions' spring pieces.
+        // The 2,562-vertex ball's three triangle chunks sit among the spring pieces of their middles: the first
+        // after six pieces (its middle at 1/5 of the triangles), the second past the middle of the order (3/5).
         region_order(&mut order, 5120, 2048, 7680, 256);
-        assert_eq!(&order[..2], &[0, 3]);
-        assert_eq!(order.iter().position(|&k| k == 1), Some(1 + 12));
+        assert_eq!(&order[..7], &[3, 4, 5, 6, 7, 8, 0]);
+        assert_eq!(order.iter().position(|&k| k == 1), Some(18 + 1));
+        assert!(order.iter().position(|&k| k == 1).unwrap() > order.len() / 2);
+        // The 642-vertex ball's one chunk (all its triangles) comes first.
+        region_order(&mut order, 1280, 2048, 1920, 256);
+        assert_eq!(order[0], 0);
     }
 }
