@@ -221,11 +221,10 @@ fn bench(c: &mut Criterion) {
             for (what, mut r) in ["right after the splits", "0.8 s after the splits"].into_iter().zip(ratios) {
                 r.sort_by(f64::total_cmp);
                 let median = (r[(r.len() - 1) / 2] + r[r.len() / 2]) / 2.0;
+                let (n, lo, hi) = (r.len(), r[0], r[r.len() - 1]);
+                let s = if n == 1 { "" } else { "s" };
                 println!(
-                    "  breakable ball {what}: split / intact median {median:.3}x over {} placements ({:.3}-{:.3}x)",
-                    r.len(),
-                    r[0],
-                    r[r.len() - 1]
+                    "  breakable ball {what}: split / intact median {median:.3}x over {n} placement{s} ({lo:.3}-{hi:.3}x)"
                 );
             }
         }
