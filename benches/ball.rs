@@ -224,7 +224,7 @@ fn bench(c: &mut Criterion) {
                 let (n, lo, hi) = (r.len(), r[0], r[r.len() - 1]);
                 let s = if n == 1 { "" } else { "s" };
                 println!(
-                    "  breakable ball {what}: split / intact {median:.3}x, median of {n} placement{s} ({lo:.3}-{hi:.3}x)"
+                    "  breakable ball {what}: split / intact {median:.3}x, median of {n} placement{s} ({lo:.3}-{hi:.3})"
                 );
             }
         }
