@@ -236,12 +236,11 @@ impl<R: Real> ContactScratch<R> {
                 });
             }
         };
+        // Only a refresh searches from the vertices for triangles: its pieces below include this grid.
         let tri_centroids = |gs: &mut [HashGrid<Box32>; 2]| {
-            if hot.is_some() {
-                for (g, of_big) in gs.iter_mut().zip([false, true]) {
-                    let ks = cand[4 + of_big as usize].iter().map(|&k| k as usize);
-                    g.build_fine_from(cell, cell, ks, |k| centroids[k]);
-                }
+            for (g, of_big) in gs.iter_mut().zip([false, true]) {
+                let ks = cand[4 + of_big as usize].iter().map(|&k| k as usize);
+                g.build_fine_from(cell, cell, ks, |k| centroids[k]);
             }
         };
         // One grid a piece, the largest (the edges') first, each built whole by one thread, so the same grids
