@@ -168,14 +168,16 @@ impl<R: Real> ForceScratch<R> {
 
 /// The pieces of two passes run as one: `nt` triangles in chunks of `chunk` (numbered `0 .. nc`) and `ns` springs in
 /// pieces of `size` (numbered `nc ..`), merged by where each one's middle lies as a fraction of its array (a
-/// triangle chunk first on a tie), into `order`. On a mesh numbered for locality a fraction of the triangles and
-/// the same fraction of the springs touch about the same particles.
+/// triangle chunk first on a tie; triangle chunks of half the triangles or more by their starts), into `order`.
+/// On a mesh numbered for locality a fraction of the triangles and the same fraction of the springs touch about
+/// the same particles.
 fn region_order(order: &mut Vec<u32>, nt: usize, chunk: usize, ns: usize, size: usize) {
     let (nc, np) = (nt.div_ceil(chunk), ns.div_ceil(size));
     // Twice a piece's middle: its start plus its end (the last piece may be short).
     let mid2 = |k: usize, len: usize, n: usize| (2 * k * len + len.min(n - k * len)) as u128;
-    // A chunk of at least half the triangles is placed by its start: it touches particles all over the mesh, and
-    // a large piece taken first (the 642-vertex ball's one chunk) lets the other thread take the small ones.
+    // Where the chunks hold half the triangles or more (one or two chunks), they are placed by their starts: such
+    // a chunk touches particles all over the mesh, and a large piece taken first (the 642-vertex ball's one
+    // chunk) lets the other thread take the small ones.
     let tri2 = |c: usize| if 2 * chunk >= nt { (2 * c * chunk) as u128 } else { mid2(c, chunk, nt) };
     order.clear();
     let (mut c, mut p) = (0, 0);
@@ -627,7 +629,7 @@ mod tests {
     /// The merged order is a permutation of the pieces, each kind in its own order, and every piece follows the
     /// pieces of the other kind that start before it (as fractions of their arrays).
     #[test]
-    fn region_order_merges_the_two_passes_by_where_their_pieces_start() {
+    fn region_order_merges_the_two_passes_by_where_their_pieces_lie() {
         let mut order = Vec::new();
         for (nt, chunk, ns, size) in [(1280, 2048, 1920, 256), (5120, 2048, 7680, 256), (20480, 2048, 30720, 256)]
             .into_iter()
@@ -638,7 +640,7 @@ mod tests {
             let mut seen = order.clone();
             seen.sort_unstable();
             assert_eq!(seen, (0..(nc + np) as u32).collect::<Vec<_>>(), "{nt} {ns}: a permutation");
-            // Each piece's middle as a fraction of its array; a chunk of half the triangles or more, its start.
+            // Each piece's middle as a fraction of its array; where chunks hold half the triangles or more, starts.
             let mid = |k: u32| {
                 let k = k as usize;
                 let whole = k < nc && 2 * chunk >= nt;
