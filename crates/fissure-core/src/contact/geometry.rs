@@ -25,6 +25,12 @@ impl Box32 {
         Self { lo: l - l.abs() * e - tiny, hi: h + h.abs() * e + tiny }
     }
 
+    /// The smallest box holding both.
+    #[inline]
+    pub fn union(&self, o: &Box32) -> Box32 {
+        Box32 { lo: self.lo.min(o.lo), hi: self.hi.max(o.hi) }
+    }
+
     /// Whether the boxes are apart along some axis (strictly: boxes that touch are not apart).
     #[inline(always)]
     pub fn apart(&self, o: &Box32) -> bool {
