@@ -556,9 +556,10 @@ fn search(
 /// within a centimetre or two of each other, so their queries had read mostly the same cells and points. The same
 /// tests on every pair an element's own query would pass, so the same pairs (the refresh sorts its new pairs
 /// before merging them). On the folding 128² cloth a hot particle owns 3.3 triangles and 4.1 edges on average
-/// (hot particles come in clusters); a refresh's searches from the triangles 4.00–4.02 → 3.70–3.75 ms and from
-/// the edges 10.43–10.57 → 9.59–9.83, contact 5.89–5.92 → 5.65–5.75 ms a substep (`cargo bench --bench contact`,
-/// one thread, timers inside the refresh, not kept, two alternated pairs, an AMD EPYC Zen 4 host, 2026-12-07).
+/// (hot particles come in clusters); a refresh's searches from the triangles 4.00–4.10 → 3.69–3.75 ms and from
+/// the edges 10.43–10.79 → 9.59–9.83, contact 5.89–6.21 → 5.65–5.75 ms a substep (`cargo bench --bench contact`,
+/// one thread, timers inside the refresh, not kept, four alternated pairs, an AMD EPYC Zen 4 host, 2026-12-07;
+/// `benches/RESULTS.md` (62)).
 /// The point's box tested against each element's before its other tests: against the union alone the
 /// triangles' searches were slower than before (4.53–4.70 ms).
 struct Groups {
