@@ -322,56 +322,16 @@ impl<R: Real> ContactScratch<R> {
             }
         };
         let mut vt = Vec::new();
-        if let Some(groups) = &groups {
-            // A refresh searches from each hot particle once for the triangles it owns (see `Groups`).
-            extend_chunks(&mut vt, &mut Vec::new(), &groups.ranks, PAR_HOT, |rs, out| {
-                let mut group: Vec<TriSearch> = Vec::new();
-                for &r in rs {
-                    group.clear();
-                    group.extend(groups.tris(r).iter().filter_map(|&t| tri_of(t)));
-                    let Some(first) = group.first() else { continue };
-                    let (lo, hi) = group.iter().fold(first.bx, |(lo, hi), s| (lo.min(s.bx.0), hi.max(s.bx.1)));
-                    let from_big = in_big(m.tri_body[first.t as usize]);
-                    let near = group.iter().skip(1).fold(first.bx32, |a, s| a.union(&s.bx32));
-                    search(
-                        grid,
-                        from_big,
-                        lo,
-                        hi,
-                        near,
-                        |_| true,
-                        |k, b| {
-                            let v = parts[k as usize];
-                            let p = x(v);
-                            group.iter().filter(|s| !b.apart(&s.bx32)).for_each(|s| vt_pair(s, v, p, out));
-                        },
-                    );
-                }
-            });
-        } else {
-            extend_chunks(&mut vt, &mut Vec::new(), &el.tris, PAR_BUILD, |tris, out| {
-                for &t in tris {
-                    let Some(s) = tri_of(t) else { continue };
-                    let from = out.len();
-                    let (lo, hi) = s.bx;
-                    let from_big = in_big(m.tri_body[t as usize]);
-                    search(
-                        grid,
-                        from_big,
-                        lo,
-                        hi,
-                        s.bx32,
-                        |_| true,
-                        |k, _| {
-                            let v = parts[k as usize];
-                            vt_pair(&s, v, x(v), out);
-                        },
-                    );
-                    // Partners in index order, whatever the grid's cells: the pairs' order (and so the impulses'
-                    // Gauss–Seidel order) does not depend on the cell size.
-                    out[from..].sort_unstable_by_key(|c| c.ids);
-                }
-            });
+        // A build searches from every triangle; a refresh from each hot particle once, for the triangles it owns
+        // (see `Groups`).
+        let from_big = |s: &TriSearch| in_big(m.tri_body[s.t as usize]);
+        let pair = |s: &TriSearch, k: u32, out: &mut Vec<Candidate>| {
+            let v = parts[k as usize];
+            vt_pair(s, v, x(v), out)
+        };
+        match &groups {
+            Some(groups) => grouped_searches(&mut vt, groups, Groups::tris, tri_of, grid, from_big, pair),
+            None => searches(&mut vt, &el.tris, tri_of, grid, from_big, pair),
         }
         if let Some(hot) = hot {
             // From each hot vertex, the same tests as from a triangle (the vertex in the grid, the triangle in the
@@ -454,39 +414,10 @@ impl<R: Real> ContactScratch<R> {
             }
         };
         let mut ee = Vec::new();
-        if let Some(groups) = &groups {
-            extend_chunks(&mut ee, &mut Vec::new(), &groups.ranks, PAR_HOT, |rs, out| {
-                let mut group: Vec<EdgeSearch> = Vec::new();
-                for &r in rs {
-                    group.clear();
-                    group.extend(groups.edges(r).iter().filter_map(|&e| edge_of(e)));
-                    let Some(first) = group.first() else { continue };
-                    let (lo, hi) = group.iter().fold(first.query, |(lo, hi), s| (lo.min(s.query.0), hi.max(s.query.1)));
-                    let near = group.iter().skip(1).fold(first.near, |a, s| a.union(&s.near));
-                    search(
-                        egrid,
-                        in_big(first.body),
-                        lo,
-                        hi,
-                        near,
-                        |_| true,
-                        |f, b| {
-                            group.iter().filter(|s| !b.apart(&s.near)).for_each(|s| ee_pair(s, f, out));
-                        },
-                    );
-                }
-            });
-        } else {
-            extend_chunks(&mut ee, &mut Vec::new(), &el.edge_ids, PAR_BUILD, |ks, out| {
-                for &e in ks {
-                    let Some(s) = edge_of(e) else { continue };
-                    let from = out.len();
-                    let (lo, hi) = s.query;
-                    // (Most edges the query reaches are not within `radius`: their boxes tell.)
-                    search(egrid, in_big(s.body), lo, hi, s.near, |_| true, |f, _| ee_pair(&s, f, out));
-                    out[from..].sort_unstable_by_key(|c| c.ids);
-                }
-            });
+        let from_big = |s: &EdgeSearch| in_big(s.body);
+        match &groups {
+            Some(groups) => grouped_searches(&mut ee, groups, Groups::edges, edge_of, egrid, from_big, ee_pair),
+            None => searches(&mut ee, &el.edge_ids, edge_of, egrid, from_big, ee_pair),
         }
         if hot.is_some() {
             // Old pairs of the searched elements out, their new pairs in, in index order: (t, v) and (e, f).
@@ -592,6 +523,68 @@ impl Groups {
     }
 }
 
+/// An element's search: the grid query's box, and the box a partner's box must meet.
+trait Searched {
+    fn query(&self) -> (DVec3, DVec3);
+    fn near(&self) -> Box32;
+}
+
+/// A build's searches: for each element, the search `of` makes of it (None: not searched), its query of `grids`,
+/// and `pair` on each point whose box meets its `near` box. Each element's partners in index order, whatever the
+/// grid's cells: the pairs' order (and so the impulses' Gauss–Seidel order) does not depend on the cell size.
+fn searches<S: Searched>(
+    out: &mut Vec<Candidate>,
+    elements: &[u32],
+    of: impl Fn(u32) -> Option<S> + Sync,
+    grids: &[HashGrid<Box32>; 2],
+    from_big: impl Fn(&S) -> bool + Sync,
+    pair: impl Fn(&S, u32, &mut Vec<Candidate>) + Sync,
+) {
+    extend_chunks(out, &mut Vec::new(), elements, PAR_BUILD, |ks, out| {
+        for &k in ks {
+            let Some(s) = of(k) else { continue };
+            let (from, (lo, hi)) = (out.len(), s.query());
+            search(grids, from_big(&s), lo, hi, s.near(), |_| true, |j, _| pair(&s, j, out));
+            out[from..].sort_unstable_by_key(|c| c.ids);
+        }
+    });
+}
+
+/// A refresh's searches by [`Groups`]: for each hot particle, the searches `of` makes of its elements (`row`),
+/// one query of `grids` over the union of their boxes, and `pair` on each of them whose `near` box the box of a
+/// point the query visits meets.
+fn grouped_searches<S: Searched>(
+    out: &mut Vec<Candidate>,
+    groups: &Groups,
+    row: fn(&Groups, u32) -> &[u32],
+    of: impl Fn(u32) -> Option<S> + Sync,
+    grids: &[HashGrid<Box32>; 2],
+    from_big: impl Fn(&S) -> bool + Sync,
+    pair: impl Fn(&S, u32, &mut Vec<Candidate>) + Sync,
+) {
+    extend_chunks(out, &mut Vec::new(), &groups.ranks, PAR_HOT, |rs, out| {
+        let mut group: Vec<S> = Vec::new();
+        for &r in rs {
+            group.clear();
+            group.extend(row(groups, r).iter().filter_map(|&k| of(k)));
+            let Some(first) = group.first() else { continue };
+            let (lo, hi) = group.iter().map(S::query).fold(first.query(), |(lo, hi), q| (lo.min(q.0), hi.max(q.1)));
+            let near = group.iter().skip(1).fold(first.near(), |a, s| a.union(&s.near()));
+            search(
+                grids,
+                from_big(first),
+                lo,
+                hi,
+                near,
+                |_| true,
+                |k, b| {
+                    group.iter().filter(|s| !b.apart(&s.near())).for_each(|s| pair(s, k, out));
+                },
+            );
+        }
+    });
+}
+
 /// A triangle searched for the vertices near it.
 struct TriSearch {
     t: u32,
@@ -602,6 +595,15 @@ struct TriSearch {
     bx32: Box32,
     /// The corners' origins: a vertex of one of them is not its partner.
     origins: [u32; 3],
+}
+
+impl Searched for TriSearch {
+    fn query(&self) -> (DVec3, DVec3) {
+        self.bx
+    }
+    fn near(&self) -> Box32 {
+        self.bx32
+    }
 }
 
 /// An edge searched for the edges near it.
@@ -642,4 +644,13 @@ fn merge_sorted<T: Copy, K: Ord>(list: &mut Vec<T>, new: Vec<T>, keep: impl Fn(&
     }
     out.extend(new);
     *list = out;
+}
+
+impl Searched for EdgeSearch {
+    fn query(&self) -> (DVec3, DVec3) {
+        self.query
+    }
+    fn near(&self) -> Box32 {
+        self.near
+    }
 }
