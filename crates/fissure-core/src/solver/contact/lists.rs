@@ -1,6 +1,7 @@
 //! The candidate lists of the contact pass (a Verlet list, see the [`crate::contact`] module): built from the hash
 //! grids over every element, or refreshed around the particles that drifted.
 
+use super::sort::{merge_sorted, radix_sort};
 use super::*;
 use crate::csr::Csr;
 use std::sync::Mutex;
@@ -428,11 +429,11 @@ impl<R: Real> ContactScratch<R> {
             let keep = |c: &Candidate| !tmask[c.ids[1] as usize] && !is_hot[c.ids[0] as usize];
             let ee_keep = |c: &Candidate| !emask[c.ids[0] as usize] && !emask[c.ids[1] as usize];
             let merge_vt = |list: &mut Vec<Candidate>, mut new: Vec<Candidate>| {
-                new.sort_unstable_by_key(vt_key);
+                radix_sort(&mut new, vt_key);
                 merge_sorted(list, new, keep, vt_key);
             };
             let merge_ee = |list: &mut Vec<Candidate>, mut new: Vec<Candidate>| {
-                new.sort_unstable_by_key(ee_key);
+                radix_sort(&mut new, ee_key);
                 merge_sorted(list, new, ee_keep, ee_key);
             };
             let big = self.vt.len() + self.ee.len() >= PAR_BUILD;
@@ -629,21 +630,6 @@ fn pieces(big: bool, n: usize, f: &(dyn Fn(usize) + Sync)) {
     #[cfg(not(feature = "parallel"))]
     let pool = false;
     if big { crate::par::exec(pool, n, f) } else { (0..n).for_each(f) }
-}
-
-/// Merges `new` into the entries of `list` that `keep` keeps, both sorted by `key` (one pass instead of a
-/// `retain` and then a merge).
-fn merge_sorted<T: Copy, K: Ord>(list: &mut Vec<T>, new: Vec<T>, keep: impl Fn(&T) -> bool, key: impl Fn(&T) -> K) {
-    let mut out = Vec::with_capacity(list.len() + new.len());
-    let mut new = new.into_iter().peekable();
-    for &old in list.iter().filter(|p| keep(p)) {
-        while let Some(n) = new.next_if(|n| key(n) < key(&old)) {
-            out.push(n);
-        }
-        out.push(old);
-    }
-    out.extend(new);
-    *list = out;
 }
 
 impl Searched for EdgeSearch {

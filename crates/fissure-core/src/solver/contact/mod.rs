@@ -4,6 +4,7 @@
 
 mod lists;
 mod moves;
+mod sort;
 
 use super::*;
 use crate::contact::geometry::{Box32, closest_on_segments, closest_on_triangle, plane_apart, segments_apart};
