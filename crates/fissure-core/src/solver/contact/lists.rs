@@ -262,19 +262,22 @@ impl<R: Real> ContactScratch<R> {
         // each hot vertex the triangles (without a hot corner) whose centroids are within `radius + c_reach` of it
         // (every triangle with a point within `radius` of it): cheaper than searching from every triangle near a
         // hot vertex, since a hot vertex's query visits the triangles near it once.
-        let (mut tmask, mut emask, mut is_hot) = (Vec::new(), Vec::new(), Vec::new());
+        // Each hot particle's place in `hot` (`NOT_HOT` for the others).
+        let (mut tmask, mut emask, mut rank) = (Vec::new(), Vec::new(), Vec::new());
         let mut groups = None;
+        let is_hot = |rank: &[u32], i: u32| rank[i as usize] != NOT_HOT;
         if let Some(hot) = hot {
-            is_hot = vec![false; m.particle_count()];
-            hot.iter().for_each(|&i| is_hot[i as usize] = true);
+            rank = vec![NOT_HOT; m.particle_count()];
+            hot.iter().enumerate().for_each(|(k, &i)| rank[i as usize] = k as u32);
+            let is_hot = |i: u32| is_hot(&rank, i);
             tmask = vec![false; m.tri_count()];
             for &t in &el.tris {
-                if m.tri_indices[t as usize].iter().any(|&i| is_hot[i as usize]) {
+                if m.tri_indices[t as usize].iter().any(|&i| is_hot(i)) {
                     tmask[t as usize] = true;
                 }
             }
-            emask = edges.iter().map(|&[i, j]| is_hot[i as usize] || is_hot[j as usize]).collect();
-            groups = Some(Groups::new(m, el, hot, &tmask, &emask));
+            emask = edges.iter().map(|&[i, j]| is_hot(i) || is_hot(j)).collect();
+            groups = Some(Groups::new(m, el, &rank, hot.len(), &tmask, &emask));
         }
         let (grid, egrid) = (&self.grid, &self.egrid);
         let r2 = radius * radius;
@@ -426,7 +429,7 @@ impl<R: Real> ContactScratch<R> {
             // The two lists are independent: on the team, one a piece.
             let vt_key = |c: &Candidate| (c.ids[1] as u64) << 32 | c.ids[0] as u64;
             let ee_key = |c: &Candidate| (c.ids[0] as u64) << 32 | c.ids[1] as u64;
-            let keep = |c: &Candidate| !tmask[c.ids[1] as usize] && !is_hot[c.ids[0] as usize];
+            let keep = |c: &Candidate| !tmask[c.ids[1] as usize] && !is_hot(&rank, c.ids[0]);
             let ee_keep = |c: &Candidate| !emask[c.ids[0] as usize] && !emask[c.ids[1] as usize];
             let merge_vt = |list: &mut Vec<Candidate>, mut new: Vec<Candidate>| {
                 radix_sort(&mut new, vt_key);
@@ -481,6 +484,9 @@ fn search(
     }
 }
 
+/// A refresh's rank of a particle that is not hot (see [`Groups::new`]).
+const NOT_HOT: u32 = u32::MAX;
+
 /// A refresh's searched elements by the hot particle that owns them: a triangle by its first hot corner, an edge
 /// by its first hot end (so each group is of one body: a triangle's corners are of its body). Each particle's
 /// triangles (and edges) are searched with one grid query over the union of their query boxes, each point it
@@ -502,17 +508,13 @@ struct Groups {
 }
 
 impl Groups {
-    fn new<R: Real>(m: &Model<R>, el: &Elements, hot: &[u32], tmask: &[bool], emask: &[bool]) -> Self {
-        let mut rank = vec![u32::MAX; m.particle_count()];
-        hot.iter().enumerate().for_each(|(k, &i)| rank[i as usize] = k as u32);
-        let owner = |vs: &[u32]| vs.iter().map(|&v| rank[v as usize]).find(|&r| r != u32::MAX).expect("a hot corner");
+    /// The groups of the `n` hot particles, each at its `rank` (see [`NOT_HOT`]), of the triangles and edges that
+    /// `tmask` and `emask` mark (those with a hot corner or end).
+    fn new<R: Real>(m: &Model<R>, el: &Elements, rank: &[u32], n: usize, tmask: &[bool], emask: &[bool]) -> Self {
+        let owner = |vs: &[u32]| vs.iter().map(|&v| rank[v as usize]).find(|&r| r != NOT_HOT).expect("a hot corner");
         let tris = el.tris.iter().filter(|&&t| tmask[t as usize]).map(|&t| (owner(&m.tri_indices[t as usize]), t));
         let edges = el.edge_ids.iter().filter(|&&e| emask[e as usize]).map(|&e| (owner(&el.edges[e as usize]), e));
-        Groups {
-            ranks: (0..hot.len() as u32).collect(),
-            tris: Csr::from_pairs(hot.len(), tris),
-            edges: Csr::from_pairs(hot.len(), edges),
-        }
+        Groups { ranks: (0..n as u32).collect(), tris: Csr::from_pairs(n, tris), edges: Csr::from_pairs(n, edges) }
     }
 
     fn tris(&self, r: u32) -> &[u32] {
