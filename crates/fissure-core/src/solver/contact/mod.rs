@@ -311,12 +311,12 @@ impl<R: Real> ContactScratch<R> {
         // functions, and with the test inside them every candidate cost a call (on the folding 128² cloth ~80,000 a
         // substep, two thirds failing the entry's test; `near` 1.56–1.91 → 1.33–1.69 ms a substep, timers not
         // kept, two alternated runs of `cargo bench --bench contact` on one thread, a Zen 4 host, 2026-12-08).
-        let near = |c: &&Candidate| c.gap < far;
+        let entry = |c: &&Candidate| c.gap < far;
         extend_chunks(&mut self.pairs, bufs, &self.vt, PAR_NEAR, |c, o| {
-            o.extend(c.iter().filter(near).filter_map(vt_pair))
+            o.extend(c.iter().filter(entry).filter_map(vt_pair))
         });
         extend_chunks(&mut self.pairs, bufs, &self.ee, PAR_NEAR, |c, o| {
-            o.extend(c.iter().filter(near).filter_map(ee_pair))
+            o.extend(c.iter().filter(entry).filter_map(ee_pair))
         });
     }
 }
